@@ -1,0 +1,107 @@
+//! Ray–triangle intersection behind one interface.
+//!
+//! Every backend is built from the same flattened triangle soup (`positions`, `indices`) and returns a
+//! *preliminary* hit `(t, prim, u, v)` in Embree's barycentric convention,
+//! `p = (1 − u − v)·p0 + u·p1 + v·p2`. Shading never reads a backend's normal: the scene builds the
+//! shading interaction from `(prim, u, v)` in one place, so both backends shade identically.
+//!
+//! - [`brute::BruteForce`]: tests every triangle; the oracle for tests, kept forever.
+//! - [`bvh::Bvh`]: the pure-Rust BVH.
+//! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
+
+pub mod brute;
+pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
+pub mod triangle;
+
+use crate::error::AccelError;
+use crate::math::{Ray, Vec3};
+
+/// A preliminary intersection: distance along the ray (in units of `ray.dir`), global triangle index,
+/// and barycentrics in Embree's convention.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// The interface every intersection backend implements. Queries are `&self` and thread-safe.
+pub trait Accel: Send + Sync {
+    /// Closest hit with `t ∈ [ray.t_min, ray.t_max]`, if any.
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+    /// Whether any hit exists with `t ∈ [ray.t_min, ray.t_max]` (shadow rays).
+    fn occluded(&self, ray: &Ray) -> bool;
+    /// Short backend name (`"embree"`, `"bvh"`, `"brute"`).
+    fn name(&self) -> &'static str;
+}
+
+/// Which backend to build, chosen at run time (`--backend embree|bvh`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackendKind {
+    Embree,
+    Bvh,
+}
+
+impl BackendKind {
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            BackendKind::Embree => "embree",
+            BackendKind::Bvh => "bvh",
+        }
+    }
+
+    /// The default backend: Embree when compiled in, the BVH otherwise.
+    #[must_use]
+    pub fn default_available() -> Self {
+        if cfg!(feature = "embree") {
+            BackendKind::Embree
+        } else {
+            BackendKind::Bvh
+        }
+    }
+}
+
+/// Builds the chosen backend over a triangle soup. Only the chosen backend is built.
+pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
+    validate_soup(positions, indices)?;
+    match kind {
+        BackendKind::Bvh => Ok(Box::new(bvh::Bvh::build(positions, indices))),
+        #[cfg(feature = "embree")]
+        BackendKind::Embree => Ok(Box::new(embree::EmbreeAccel::new(positions, indices)?)),
+        #[cfg(not(feature = "embree"))]
+        BackendKind::Embree => Err(AccelError::EmbreeNotCompiled),
+    }
+}
+
+/// The Embree version the build detected (e.g. `"3.13.5"`), or `None` without the `embree` feature.
+#[must_use]
+pub fn embree_version() -> Option<&'static str> {
+    #[cfg(feature = "embree")]
+    {
+        Some(embree::VERSION)
+    }
+    #[cfg(not(feature = "embree"))]
+    {
+        None
+    }
+}
+
+/// Rejects soups no backend can index: out-of-range indices and non-finite positions.
+fn validate_soup(positions: &[Vec3], indices: &[[u32; 3]]) -> Result<(), AccelError> {
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(AccelError::InvalidGeometry(format!("vertex {i} is not finite: {:?}", positions[i])));
+    }
+    if positions.len() > u32::MAX as usize || indices.len() > u32::MAX as usize {
+        return Err(AccelError::InvalidGeometry("more than 2^32 vertices or triangles".into()));
+    }
+    let n = positions.len() as u32;
+    if let Some(t) = indices.iter().position(|tri| tri.iter().any(|&i| i >= n)) {
+        return Err(AccelError::InvalidGeometry(format!("triangle {t} indexes a vertex past the {n} given")));
+    }
+    Ok(())
+}

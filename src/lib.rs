@@ -1,0 +1,15 @@
+//! caustica: an offline path tracer with an MIS-weighted caustic photon map.
+//!
+//! Module map (see ARCHITECTURE.md):
+//! - [`math`]: glam re-exports, [`math::Ray`], [`math::Aabb`], [`math::Frame`], the one ray-origin offset rule.
+//! - [`mesh`]: triangle meshes and their loaders (OBJ, PLY, gzipped PLY).
+//! - [`accel`]: the `Accel` interface, the brute-force oracle, the pure-Rust BVH and (feature `embree`)
+//!   the Embree backend — the only module allowed `unsafe`.
+//! - [`sampler`]: deterministic random streams keyed by (seed, pixel, sample, dimension).
+#![deny(unsafe_code)]
+
+pub mod accel;
+pub mod error;
+pub mod math;
+pub mod mesh;
+pub mod sampler;

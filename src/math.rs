@@ -1,0 +1,242 @@
+//! Geometry primitives shared by every module: rays, boxes, orthonormal frames, and the one
+//! ray-origin offset rule that both intersection backends and the integrator use.
+//!
+//! Concrete `f32` types from glam throughout (no generic `Float`), as glam itself decided.
+
+pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+
+/// A ray `origin + t·dir` valid for `t ∈ [t_min, t_max]` (inclusive, Embree's convention).
+/// `dir` need not be normalised; `t` is measured in units of `dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl Ray {
+    /// An unbounded ray (`t ∈ [0, ∞)`).
+    #[must_use]
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self { origin, dir, t_min: 0.0, t_max: f32::INFINITY }
+    }
+
+    /// A ray restricted to `t ∈ [t_min, t_max]`.
+    #[must_use]
+    pub fn segment(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Self {
+        Self { origin, dir, t_min, t_max }
+    }
+
+    #[must_use]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// Axis-aligned bounding box. The empty box has `min = +∞`, `max = −∞`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    #[must_use]
+    pub fn from_points(points: &[Vec3]) -> Self {
+        points.iter().fold(Self::EMPTY, |b, &p| b.grow(p))
+    }
+
+    #[must_use]
+    pub fn grow(self, p: Vec3) -> Self {
+        Self { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    #[must_use]
+    pub fn union(self, o: Aabb) -> Self {
+        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    #[must_use]
+    pub fn extent(&self) -> Vec3 {
+        if self.is_empty() {
+            Vec3::ZERO
+        } else {
+            self.max - self.min
+        }
+    }
+
+    #[must_use]
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    /// Surface area (0 for the empty box).
+    #[must_use]
+    pub fn surface_area(&self) -> f32 {
+        let e = self.extent();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    /// Index (0, 1, 2) of the longest axis.
+    #[must_use]
+    pub fn largest_axis(&self) -> usize {
+        let e = self.extent();
+        if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        }
+    }
+
+    #[must_use]
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// Centre and radius of a sphere enclosing the box (the scene's bounding sphere).
+    #[must_use]
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        if self.is_empty() {
+            (Vec3::ZERO, 0.0)
+        } else {
+            (self.center(), 0.5 * self.extent().length())
+        }
+    }
+}
+
+/// An orthonormal frame (s, t, n); `to_local` / `to_world` name the direction of the change.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// Frame around a unit normal, branchless (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+    #[must_use]
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Self { s, t, n }
+    }
+
+    #[must_use]
+    pub fn to_local(&self, v_world: Vec3) -> Vec3 {
+        Vec3::new(v_world.dot(self.s), v_world.dot(self.t), v_world.dot(self.n))
+    }
+
+    #[must_use]
+    pub fn to_world(&self, v_local: Vec3) -> Vec3 {
+        v_local.x * self.s + v_local.y * self.t + v_local.z * self.n
+    }
+}
+
+/// `γ(n) = n·ε / (1 − n·ε)` with ε = 2⁻²⁴, the bound on relative rounding error of n f32 operations
+/// (Higham; pbrt-v4 §6.8.1).
+#[must_use]
+pub const fn gamma(n: u32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    (n as f32 * e) / (1.0 - n as f32 * e)
+}
+
+/// Conservative absolute error of a point reconstructed from barycentrics,
+/// `p = b0·p0 + b1·p1 + b2·p2`: `γ(7)·(|b0·p0| + |b1·p1| + |b2·p2|)` per axis (pbrt-v4 eq. 6.31).
+/// Both backends return barycentrics and the hit point is always rebuilt this way, so one bound
+/// serves both.
+#[must_use]
+pub fn barycentric_point_error(b: [f32; 3], p: [Vec3; 3]) -> Vec3 {
+    gamma(7) * ((b[0] * p[0]).abs() + (b[1] * p[1]).abs() + (b[2] * p[2]).abs())
+}
+
+/// The one ray-origin offset rule, used for every spawned ray by both backends and the integrator.
+///
+/// Moves `p` along the geometric normal `ng`, to the side `dir` points into, by the projection of its
+/// error box `p_error` onto the normal, then one more ULP outward per axis (pbrt-v4 `OffsetRayOrigin`,
+/// §6.8.6). The offset scales with the magnitude of the triangle's coordinates, so scenes at 1e-3 and
+/// 1e4 units both work without a global epsilon.
+#[must_use]
+pub fn offset_ray_origin(p: Vec3, p_error: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+    let d = ng.abs().dot(p_error);
+    let mut offset = d * ng;
+    if dir.dot(ng) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = next_float_up(po[i]);
+        } else if offset[i] < 0.0 {
+            po[i] = next_float_down(po[i]);
+        }
+    }
+    po
+}
+
+/// Smallest f32 greater than `v` (∞ stays ∞; −0 is treated as +0).
+#[must_use]
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == -0.0 { 0.0 } else { v };
+    let bits = v.to_bits();
+    f32::from_bits(if v >= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// Largest f32 smaller than `v`.
+#[must_use]
+pub fn next_float_down(v: f32) -> f32 {
+    -next_float_up(-v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_and_round_trips() {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.4, 0.866).normalize(), Vec3::new(1e-7, 0.0, -1.0).normalize()] {
+            let f = Frame::from_normal(n);
+            assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
+            let v = Vec3::new(0.2, -0.7, 0.5);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn offset_moves_to_the_side_of_dir_at_every_scale() {
+        for scale in [1e-3f32, 1.0, 1e4, 1e6] {
+            let tri = [Vec3::new(0.0, 0.7, -1.0), Vec3::new(1.0, 0.7, 0.0), Vec3::new(0.0, 0.7, 1.0)].map(|p| p * scale);
+            let b = [0.2, 0.5, 0.3];
+            let p = b[0] * tri[0] + b[1] * tri[1] + b[2] * tri[2];
+            let err = barycentric_point_error(b, tri);
+            let ng = Vec3::Y;
+            let up = offset_ray_origin(p, err, ng, Vec3::Y);
+            let down = offset_ray_origin(p, err, ng, -Vec3::Y);
+            assert!(up.y > tri[0].y && down.y < tri[0].y, "scale {scale}: {up} {down}");
+            // Small relative to the scene's scale.
+            assert!((up - p).length() < 1e-5 * scale, "scale {scale}");
+        }
+    }
+}
