@@ -4,6 +4,8 @@
 //! Scenes flatten all their meshes into one soup, so a triangle's index in the soup is the
 //! `prim` that both intersection backends report.
 
+pub mod shapes;
+
 use crate::math::{Aabb, Vec2, Vec3};
 
 /// An indexed triangle mesh.
