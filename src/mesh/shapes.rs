@@ -75,17 +75,17 @@ pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> TriangleM
     let ring = |r: u32, s: u32| 1 + (r - 1) * segments + (s % segments);
     let mut indices = Vec::with_capacity((2 * segments * (rings - 1)) as usize);
     for s in 0..segments {
-        indices.push([0, ring(1, s + 1), ring(1, s)]);
+        indices.push([0, ring(1, s), ring(1, s + 1)]);
     }
     for r in 1..rings - 1 {
         for s in 0..segments {
             let (a, b, c, d) = (ring(r, s), ring(r, s + 1), ring(r + 1, s), ring(r + 1, s + 1));
-            indices.push([a, b, d]);
-            indices.push([a, d, c]);
+            indices.push([a, d, b]);
+            indices.push([a, c, d]);
         }
     }
     for s in 0..segments {
-        indices.push([south, ring(rings - 1, s), ring(rings - 1, s + 1)]);
+        indices.push([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
     }
     TriangleMesh { positions, indices, normals: Some(normals), uvs: Some(uvs) }
 }
