@@ -1,0 +1,274 @@
+//! `caustica render SCENE.toml ...`: loads a scene, builds the chosen backend, renders, writes the
+//! EXR (and PNG preview, stats JSON, error log) atomically.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use serde::Serialize;
+
+use crate::accel::{build_accel, embree_version, BackendKind};
+use crate::film::{write_exr, write_png, Film, Tonemap};
+use crate::render::{render, RenderSettings};
+use crate::scene::{Estimator, Scene};
+
+/// Arguments of `caustica render`. Command-line values override the scene file.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output EXR (float32 RGB). Default: the scene's name with `.exr`, in the current directory.
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Also write an sRGB PNG preview here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Exposure of the PNG preview, in stops.
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f32,
+    /// Tone mapping of the PNG preview.
+    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
+    pub tonemap: Tonemap,
+    /// Samples per pixel.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Render whole passes until this many seconds are spent (ignores --spp).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Samples per pixel of one pass (time-limited renders; default 4).
+    #[arg(long)]
+    pub pass_spp: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    #[arg(long, value_enum)]
+    pub backend: Option<BackendKind>,
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Crop window x0,y0,x1,y1 in pixels (end exclusive).
+    #[arg(long)]
+    pub crop: Option<String>,
+    /// Caustic estimator.
+    #[arg(long, value_enum)]
+    pub estimator: Option<Estimator>,
+    /// Photons emitted per photon pass.
+    #[arg(long)]
+    pub photons: Option<u64>,
+    /// k of the k-nearest-neighbour density estimate.
+    #[arg(long)]
+    pub knn: Option<u32>,
+    /// Maximum search radius of the density estimate (scene units).
+    #[arg(long)]
+    pub max_radius: Option<f32>,
+    /// Write statistics as JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
+}
+
+/// The statistics JSON of a render (`--stats`).
+#[derive(Debug, Serialize)]
+pub struct RenderStatsJson {
+    pub scene: String,
+    pub backend: &'static str,
+    pub embree_version: Option<&'static str>,
+    pub width: u32,
+    pub height: u32,
+    pub crop: [u32; 4],
+    pub spp: u32,
+    pub passes: u32,
+    pub threads: usize,
+    pub seed: u64,
+    pub estimator: Estimator,
+    pub seconds_total: f64,
+    pub seconds_setup: f64,
+    pub seconds_render: f64,
+    pub seconds_photons: f64,
+    pub seconds_kdtree: f64,
+    pub rays_traced: u64,
+    pub rays_per_second: f64,
+    pub samples_per_second: f64,
+    pub knn: u32,
+    pub knn_queries: u64,
+    pub photons_emitted: u64,
+    pub photons_stored: u64,
+    pub photon_bytes: u64,
+    pub photon_chains_capped: u64,
+    pub nan_pixels: u64,
+    pub inf_pixels: u64,
+    pub partial: bool,
+    /// Phases the scene did not need, each with the reason.
+    pub skipped: std::collections::BTreeMap<String, String>,
+}
+
+/// Default photon count for an image: one per pixel of the crop window, at least 100,000.
+#[must_use]
+pub fn default_photons(pixels: u64) -> u64 {
+    pixels.max(100_000)
+}
+
+/// Default maximum search radius: 5% of the scene's bounding radius.
+#[must_use]
+pub fn default_max_radius(scene: &Scene) -> f32 {
+    let (_, r) = scene.bounds.bounding_sphere();
+    (0.05 * r).max(1e-6)
+}
+
+fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
+    let v: Vec<u32> = s.split(',').map(|x| x.trim().parse::<u32>()).collect::<Result<_, _>>().with_context(|| format!("--crop {s:?}: expected x0,y0,x1,y1"))?;
+    if v.len() != 4 || v[0] >= v[2] || v[1] >= v[3] {
+        bail!("--crop {s:?}: expected x0,y0,x1,y1 with x0 < x1 and y0 < y1");
+    }
+    Ok([v[0], v[1], v[2], v[3]])
+}
+
+/// Checks a user-given positive finite number.
+fn positive(name: &str, v: f32) -> anyhow::Result<f32> {
+    if !(v.is_finite() && v > 0.0) {
+        bail!("{name} must be a positive finite number, got {v}");
+    }
+    Ok(v)
+}
+
+/// Runs `caustica render`.
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let t_start = Instant::now();
+    let mut scene = Scene::load(&args.scene)?;
+    if args.width.is_some() || args.height.is_some() {
+        let w = args.width.unwrap_or(scene.camera.width());
+        let h = args.height.unwrap_or(scene.camera.height());
+        if w == 0 || h == 0 {
+            bail!("--width/--height must be positive");
+        }
+        scene.camera.set_resolution(w, h);
+    }
+    if let Some(c) = &args.crop {
+        let [x0, y0, x1, y1] = parse_crop(c)?;
+        if x1 > scene.camera.width() || y1 > scene.camera.height() {
+            bail!("--crop {c}: outside the {}x{} film", scene.camera.width(), scene.camera.height());
+        }
+        scene.camera.set_crop(x0, y0, x1, y1);
+    }
+    let integ = &scene.integrator;
+    let caus = &integ.caustics;
+    let (x0, y0, x1, y1) = scene.camera.crop();
+    let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
+    let settings = RenderSettings {
+        spp: args.spp.unwrap_or(integ.samples_per_pixel).max(1),
+        pass_spp: if args.time_limit.is_some() { args.pass_spp.unwrap_or(4) } else { args.pass_spp.unwrap_or(u32::MAX) },
+        time_limit: match args.time_limit {
+            Some(t) => Some(f64::from(positive("--time-limit", t as f32)?)),
+            None => None,
+        },
+        seed: args.seed.unwrap_or(integ.seed),
+        estimator: args.estimator.unwrap_or(caus.estimator),
+        photons: args.photons.or(caus.photons).unwrap_or_else(|| default_photons(pixels)),
+        knn: args.knn.unwrap_or(caus.knn).max(1),
+        max_radius: match args.max_radius.or(caus.max_radius) {
+            Some(r) => positive("max_radius", r)?,
+            None => default_max_radius(&scene),
+        },
+    };
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    let backend = args.backend.unwrap_or_else(BackendKind::default_available);
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args.scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+        PathBuf::from(format!("{stem}.exr"))
+    });
+
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("creating the worker threads")?;
+    let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    let seconds_setup = t_start.elapsed().as_secs_f64();
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let c = cancel.clone();
+        // A second Ctrl-C while the first is being honoured exits at once.
+        let _ = ctrlc::set_handler(move || {
+            if c.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    let show_progress = !args.quiet && std::io::stdout().is_terminal();
+    let progress = crate::cmd::progress::Progress::new(show_progress, &settings, pixels);
+    let mut film = Film::new(scene.camera.width(), scene.camera.height(), scene.camera.crop());
+    let phases = pool.install(|| {
+        render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |_, info| progress.pass_done(info), &|samples| progress.tile_done(samples))
+    });
+    progress.finish();
+
+    let image = film.image();
+    write_exr(&output, &image)?;
+    if let Some(png) = &args.png {
+        write_png(png, &image, args.exposure, args.tonemap)?;
+    }
+    let seconds_total = t_start.elapsed().as_secs_f64();
+    let samples = pixels as f64 * f64::from(phases.spp);
+    let stats = RenderStatsJson {
+        scene: args.scene.display().to_string(),
+        backend: backend.name(),
+        embree_version: if backend == BackendKind::Embree { embree_version() } else { None },
+        width: scene.camera.width(),
+        height: scene.camera.height(),
+        crop: [x0, y0, x1, y1],
+        spp: phases.spp,
+        passes: phases.passes,
+        threads,
+        seed: settings.seed,
+        estimator: settings.estimator,
+        seconds_total,
+        seconds_setup,
+        seconds_render: phases.seconds_render,
+        seconds_photons: phases.seconds_photons,
+        seconds_kdtree: phases.seconds_kdtree,
+        rays_traced: phases.rays_traced,
+        rays_per_second: phases.rays_traced as f64 / (phases.seconds_render + phases.seconds_photons).max(1e-9),
+        samples_per_second: samples / phases.seconds_render.max(1e-9),
+        knn: settings.knn,
+        knn_queries: phases.knn_queries,
+        photons_emitted: phases.photons_emitted,
+        photons_stored: phases.photons_stored,
+        photon_bytes: phases.photon_bytes,
+        photon_chains_capped: phases.photon_chains_capped,
+        nan_pixels: film.nan_samples(),
+        inf_pixels: film.inf_samples(),
+        partial: phases.partial,
+        skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
+    };
+    if let Some(p) = &args.stats {
+        write_json_atomic(p, &stats)?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "{}: {}x{} {} spp ({}) in {:.2} s (setup {:.2} s, photons {:.2} s, render {:.2} s), {:.2} Mrays/s{}",
+            output.display(),
+            x1 - x0,
+            y1 - y0,
+            phases.spp,
+            format!("{:?}", settings.estimator).to_lowercase(),
+            seconds_total,
+            seconds_setup,
+            phases.seconds_photons + phases.seconds_kdtree,
+            phases.seconds_render,
+            stats.rays_per_second * 1e-6,
+            if phases.partial { " [partial: interrupted]" } else { "" }
+        );
+    }
+    Ok(())
+}
+
+/// Writes JSON to `path` atomically (temporary file in the same directory, then rename).
+pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    crate::film::write_atomic(path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))
+}

@@ -1,0 +1,148 @@
+//! The caustic estimators (method.md §1, §3, §4) — the one place where `pt`, `pm` and `mis` differ.
+//!
+//! A caustic path reaches a non-delta eye vertex `x` as `L S⁺ x`. Two techniques can make it:
+//! - **T1**, photon density estimation at `x` ([`CausticEstimator::gather`]), each photon weighted by `w₁`;
+//! - **T2**, a BSDF sample at `x` followed through ≥1 delta vertex to an emitter, weighted by `w₂`
+//!   ([`CausticEstimator::t2_weight`]).
+//!
+//! | estimator | w₁ | w₂ |
+//! |---|---|---|
+//! | `pt`  | — (no photon map) | 1 |
+//! | `pm`  | 1 | 0 |
+//! | `mis` | q₁²/(q₁²+q₂²) | 1 − w₁ |
+//!
+//! `q₁ = N·Le·|cos θ|·ΔA / (Φ·α)` (paper eq. 2, method.md §4) and `q₂ = pdf_w` of the BSDF sampler at `x`.
+//! Both sides call [`CausticEstimator::q1`] and the project's one MIS function
+//! [`crate::sampling::mis::mis_weight_pair`], so `w₁ + w₂ = 1` for the same path by construction.
+//!
+//! Emitters that emit no photons (the `constant` emitter, see `photon::emit`) have no T1 technique, so
+//! their caustics keep `w₂ = 1` in every estimator.
+
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::math::Vec3;
+use crate::photon::kdtree::KnnResult;
+use crate::photon::PhotonMap;
+use crate::sampling::mis::mis_weight_pair;
+use crate::scene::{Estimator, SurfaceInteraction};
+
+/// What T2 needs to remember about the non-delta vertex `x` a BSDF-sampled ray left from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CausticOrigin {
+    /// `q₂`: the solid-angle pdf with which the BSDF sampler at `x` produced the direction.
+    pub pdf_w: f32,
+    /// `|cos θ|` between that direction and the shading normal at `x`.
+    pub cos_theta: f32,
+    /// The k-NN area `ΔA(x)` (method.md §3).
+    pub delta_area: f32,
+    /// `α`: samples per pixel sharing the photon map if `x` is the first non-delta eye vertex, else 1.
+    pub alpha: f32,
+}
+
+/// Result of the density estimate at one vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gather {
+    /// `L₁(x, ωₒ) = Σₚ w₁(p)·f(x, ωₒ, ωₚ)·Φₚ / ΔA` (method.md §3).
+    pub l1: Vec3,
+    /// `ΔA = π r²`, clamped from below by [`CausticEstimator::min_area`].
+    pub delta_area: f32,
+    /// Number of photons that entered the estimate.
+    pub photons: u32,
+}
+
+/// The caustic estimator of one render pass.
+pub struct CausticEstimator<'a> {
+    estimator: Estimator,
+    map: Option<&'a PhotonMap>,
+    knn: usize,
+    max_radius: f32,
+    /// Lower bound on ΔA: coincident photons give r → 0 (method.md §3). `π·(10⁻³·r_max)²`.
+    min_area: f32,
+}
+
+impl<'a> CausticEstimator<'a> {
+    /// `map` is `None` for `pt`, and for `pm`/`mis` when the scene needs no photon pass.
+    #[must_use]
+    pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32) -> Self {
+        let map = if estimator == Estimator::Pt { None } else { map };
+        let min_area = std::f32::consts::PI * (1e-3 * max_radius).powi(2);
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_area.max(f32::MIN_POSITIVE) }
+    }
+
+    /// Whether density estimation runs at non-delta vertices (a photon map exists).
+    #[must_use]
+    pub fn active(&self) -> bool {
+        self.map.is_some()
+    }
+
+    #[must_use]
+    pub fn estimator(&self) -> Estimator {
+        self.estimator
+    }
+
+    #[must_use]
+    pub fn min_area(&self) -> f32 {
+        self.min_area
+    }
+
+    /// `q₁ = N·Le·|cos θ|·ΔA / (Φ·α)` — paper eq. 2, method.md §4. Computed in f64; a value beyond f32
+    /// saturates to ∞, which the MIS function maps to its limit.
+    #[must_use]
+    pub fn q1(&self, le: f32, cos_theta: f32, delta_area: f32, alpha: f32) -> f32 {
+        let Some(map) = self.map else { return 0.0 };
+        let phi = f64::from(map.total_power());
+        if phi <= 0.0 {
+            return 0.0;
+        }
+        (map.emitted() as f64 * f64::from(le) * f64::from(cos_theta.abs()) * f64::from(delta_area) / (phi * f64::from(alpha))) as f32
+    }
+
+    /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).
+    /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
+    pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut KnnResult) -> Gather {
+        let Some(map) = self.map else {
+            return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0 };
+        };
+        let ng = si.ng;
+        let wo_side = wo_world.dot(ng);
+        map.tree().knn(si.p, self.knn, self.max_radius, |ph| ph.wi_world().dot(ng) * wo_side > 0.0, scratch);
+        let delta_area = (std::f32::consts::PI * scratch.radius2()).max(self.min_area);
+        let wo_local = si.frame.to_local(wo_world);
+        let mut sum = Vec3::ZERO;
+        let photons = map.tree().photons();
+        for &i in scratch.indices() {
+            let ph = &photons[i as usize];
+            let wi_local = si.frame.to_local(ph.wi_world());
+            let f = bsdf.f(wo_local, wi_local, TransportMode::Radiance);
+            if f == Vec3::ZERO {
+                continue;
+            }
+            let w1 = match self.estimator {
+                Estimator::Mis => {
+                    let q1 = self.q1(ph.le(), wi_local.z, delta_area, alpha);
+                    let q2 = bsdf.pdf_w(wo_local, wi_local);
+                    mis_weight_pair(q1, q2).0
+                }
+                _ => 1.0,
+            };
+            sum += w1 * f * ph.power();
+        }
+        Gather { l1: sum / delta_area, delta_area, photons: scratch.indices().len() as u32 }
+    }
+
+    /// T2's weight for emission `le_lum` (luminance) reached from `origin` through ≥1 delta vertex.
+    /// `has_photons`: whether the emitter that was reached emits photons (else T1 cannot make the path).
+    #[must_use]
+    pub fn t2_weight(&self, origin: &CausticOrigin, le_lum: f32, has_photons: bool) -> f32 {
+        if !has_photons || self.map.is_none() {
+            return 1.0;
+        }
+        match self.estimator {
+            Estimator::Pt => 1.0,
+            Estimator::Pm => 0.0,
+            Estimator::Mis => {
+                let q1 = self.q1(le_lum, origin.cos_theta, origin.delta_area, origin.alpha);
+                mis_weight_pair(q1, origin.pdf_w).1
+            }
+        }
+    }
+}

@@ -1,0 +1,194 @@
+//! The path tracer: next-event estimation + BSDF sampling combined by the power heuristic (Veach 1997
+//! §9.2.4), Russian roulette, and the caustic estimator hooks of [`super::caustic`].
+//!
+//! Path state is one struct ([`Vertex`]): what the vertex that spawned the current ray was (camera,
+//! delta, non-delta with its position and BSDF pdf), and — when a photon map is active — the
+//! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
+//! through `x S⁺ L` can be weighted by `w₂`.
+
+use super::caustic::{CausticEstimator, CausticOrigin};
+use crate::accel::Accel;
+use crate::bsdf::TransportMode;
+use crate::light::{luminance, Light};
+use crate::math::{Ray, Vec3};
+use crate::photon::kdtree::KnnResult;
+use crate::photon::light_emits_photons;
+use crate::sampler::Sampler;
+use crate::sampling::mis::power_heuristic;
+use crate::scene::Scene;
+
+/// Counters a worker accumulates; summed over tiles for the stats.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PathStats {
+    /// Closest-hit and shadow rays.
+    pub rays: u64,
+    /// k-NN queries (density estimates).
+    pub knn_queries: u64,
+}
+
+impl PathStats {
+    pub fn add(&mut self, o: &PathStats) {
+        self.rays += o.rays;
+        self.knn_queries += o.knn_queries;
+    }
+}
+
+/// What spawned the current ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Vertex {
+    Camera,
+    /// A delta lobe was sampled (mirror, glass, or the delta lobe of a blend).
+    Delta,
+    /// A non-delta lobe was sampled at `p` with solid-angle pdf `pdf_w` (for NEE/BSDF MIS).
+    NonDelta { p: Vec3, pdf_w: f32 },
+}
+
+/// The path tracer for one render pass. Immutable and shared by all worker threads.
+pub struct PathTracer<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a dyn Accel,
+    pub caustics: CausticEstimator<'a>,
+    /// Eye samples per pixel that share this pass's photon map (α of paper eq. 2).
+    pub alpha: f32,
+}
+
+impl<'a> PathTracer<'a> {
+    /// Longest path in segments, or `u32::MAX` for unlimited.
+    fn max_depth(&self) -> u32 {
+        u32::try_from(self.scene.integrator.max_depth).unwrap_or(u32::MAX)
+    }
+
+    /// Weight of emission `le` found at the end of the current ray (the one function for every emission
+    /// term a camera path collects).
+    /// - after the camera: 1;
+    /// - after a non-delta vertex: power heuristic between the BSDF pdf and NEE's `light_pdf_w`;
+    /// - after a delta vertex with no non-delta vertex before (E S⁺ L, e.g. a light in a mirror): 1;
+    /// - after `x S⁺` with `x` non-delta: the caustic weight `w₂` (method.md §4).
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, le: Vec3, has_photons: bool) -> f32 {
+        match prev {
+            Vertex::Camera => 1.0,
+            Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
+            Vertex::Delta => match caustic {
+                None => 1.0,
+                Some(origin) => self.caustics.t2_weight(origin, luminance(le), has_photons),
+            },
+        }
+    }
+
+    /// Radiance along `ray` (a camera ray), estimated with one path.
+    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, stats: &mut PathStats, knn: &mut KnnResult) -> Vec3 {
+        let scene = self.scene;
+        let lights = &scene.lights;
+        let max_depth = self.max_depth();
+        let rr_depth = scene.integrator.rr_depth;
+        let mut l = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut prev = Vertex::Camera;
+        let mut caustic: Option<CausticOrigin> = None;
+        let mut first_non_delta = true;
+        // Number of segments of the path up to the current hit.
+        let mut depth: u32 = 1;
+        loop {
+            stats.rays += 1;
+            let dir = ray.dir.normalize();
+            let Some(hit) = self.accel.intersect(&ray) else {
+                // Escaped: environment emission, split into the part that emits photons (env maps) and
+                // the part that does not (constant), since only the first has a T1 technique.
+                for light in lights.lights() {
+                    let le = match light {
+                        Light::Env(env) => env.eval(dir),
+                        Light::Constant { radiance } => *radiance,
+                        Light::Area(_) => continue,
+                    };
+                    if le == Vec3::ZERO {
+                        continue;
+                    }
+                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), le, light_emits_photons(light));
+                    l += beta * w * le;
+                }
+                break;
+            };
+            let si = scene.interaction(&ray, &hit);
+            let wo_world = -dir;
+
+            // Emission from an area light that was hit.
+            if lights.light_of_prim(hit.prim).is_some() {
+                let le = lights.le_area(hit.prim, si.ng, wo_world);
+                if le != Vec3::ZERO {
+                    let light_pdf = || match prev {
+                        Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),
+                        _ => 0.0,
+                    };
+                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, le, true) * le;
+                }
+            }
+            if depth >= max_depth {
+                break;
+            }
+
+            let bsdf = &scene.bsdfs[si.material as usize];
+            let wo_local = si.frame.to_local(wo_world);
+            let non_delta = bsdf.has_non_delta();
+
+            // Next-event estimation (direct light L x), MIS with BSDF sampling.
+            if non_delta && !lights.is_empty() {
+                let u_sel = sampler.next_1d();
+                let u_li = sampler.next_2d();
+                if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
+                    let wi_local = si.frame.to_local(ls.wi_world);
+                    let f = bsdf.f(wo_local, wi_local, TransportMode::Radiance) * wi_local.z.abs();
+                    if f != Vec3::ZERO && ls.pdf_w > 0.0 && ls.li != Vec3::ZERO {
+                        let shadow = if ls.dist.is_finite() { si.spawn_ray_to(ls.p_light) } else { si.spawn_ray(ls.wi_world) };
+                        stats.rays += 1;
+                        if !self.accel.occluded(&shadow) {
+                            let w = power_heuristic(ls.pdf_w, bsdf.pdf_w(wo_local, wi_local));
+                            l += beta * f * ls.li * (w / ls.pdf_w);
+                        }
+                    }
+                }
+            }
+
+            // Caustics T1 at x (and ΔA(x), which T2 needs).
+            let mut delta_area = None;
+            let alpha = if first_non_delta { self.alpha } else { 1.0 };
+            if non_delta && self.caustics.active() {
+                let g = self.caustics.gather(&si, wo_world, bsdf, alpha, knn);
+                stats.knn_queries += 1;
+                l += beta * g.l1;
+                delta_area = Some(g.delta_area);
+            }
+            if non_delta {
+                first_non_delta = false;
+            }
+
+            // Continue the path by BSDF sampling.
+            let u_lobe = sampler.next_1d();
+            let u_dir = sampler.next_2d();
+            let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir, TransportMode::Radiance) else { break };
+            if bs.weight == Vec3::ZERO {
+                break;
+            }
+            beta *= bs.weight;
+            debug_assert!(beta.is_finite(), "throughput not finite: {beta}");
+            let wi_world = si.frame.to_world(bs.wi_local);
+            if bs.delta {
+                prev = Vertex::Delta;
+            } else {
+                prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
+                caustic = delta_area.map(|delta_area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), delta_area, alpha });
+            }
+
+            // Russian roulette (survival ∝ throughput, capped at 0.95).
+            if depth >= rr_depth {
+                let p_survive = beta.max_element().min(0.95);
+                if p_survive <= 0.0 || sampler.next_1d() >= p_survive {
+                    break;
+                }
+                beta /= p_survive;
+            }
+            depth += 1;
+            ray = si.spawn_ray(wi_world);
+        }
+        l
+    }
+}

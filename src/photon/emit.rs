@@ -1,0 +1,197 @@
+//! The caustic photon pass (method.md §2): emission proportional to power from area lights and
+//! environment maps, tracing through delta bounces, storage at the first non-delta hit.
+//!
+//! - Light `j` is chosen with probability `Φⱼ/Φ` among the photon-emitting lights (area lights:
+//!   `Φ = π·A·Le`; env maps: `Φ = π·R²·∫Le dω`, R the scene's bounding radius). The `constant` emitter
+//!   emits no photons: its caustics stay with BSDF sampling (w₂ = 1) in every estimator.
+//! - A photon's power is `Le·|cos θ′| / (N·p(light)·p(x′)·p(ω′))`, i.e. the exact inverse of the
+//!   sampling pdf; for a light sampled ∝ Le·cos this equals `Φ·Le_rgb / (N·Le)` of method.md §2.
+//! - The first hit must choose a delta lobe, else the photon is no caustic photon and is dropped.
+//!   Delta bounces are followed (glass: reflect or refract with the Fresnel probability, the power
+//!   divided by it). At a surface with a non-delta lobe the photon is stored; it continues only if
+//!   that surface's sampler then chooses a delta lobe (a blend of delta and non-delta), which keeps
+//!   photons consistent with eye paths that treat each sampled lobe as delta or not.
+//! - Chains longer than [`MAX_DELTA_CHAIN`] are cut and counted in the stats.
+//! - Photon `i` of pass `p` draws from `Sampler::for_photon(seed, p, i)`: the map is deterministic.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::kdtree::KdTree;
+use super::record::Photon;
+use crate::accel::Accel;
+use crate::bsdf::TransportMode;
+use crate::light::{luminance, Light};
+use crate::math::Vec3;
+use crate::sampler::Sampler;
+use crate::sampling::distribution::Distribution1D;
+use crate::scene::Scene;
+
+/// Longest chain of delta bounces a photon follows.
+pub const MAX_DELTA_CHAIN: u32 = 16;
+
+/// Whether `light` takes part in the photon pass (area lights and env maps do; `constant` does not).
+#[must_use]
+pub fn light_emits_photons(light: &Light) -> bool {
+    matches!(light, Light::Area(_) | Light::Env(_))
+}
+
+/// A caustic photon map: the kd-tree over stored photons, and what q₁ needs (N and Φ).
+pub struct PhotonMap {
+    tree: KdTree,
+    emitted: u64,
+    total_power: f32,
+}
+
+impl PhotonMap {
+    #[must_use]
+    pub fn tree(&self) -> &KdTree {
+        &self.tree
+    }
+    /// `N`: every emitted photon, stored or not.
+    #[must_use]
+    pub fn emitted(&self) -> u64 {
+        self.emitted
+    }
+    /// `Φ`: total power (luminance) of the photon-emitting lights.
+    #[must_use]
+    pub fn total_power(&self) -> f32 {
+        self.total_power
+    }
+}
+
+/// What one photon pass did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhotonPassStats {
+    pub emitted: u64,
+    pub stored: u64,
+    pub bytes: u64,
+    pub rays: u64,
+    pub chains_capped: u64,
+    pub seconds_trace: f64,
+    pub seconds_kdtree: f64,
+}
+
+/// Power (luminance) of each light for the photon pass; 0 for lights that emit no photons.
+#[must_use]
+pub fn photon_light_powers(scene: &Scene) -> Vec<f32> {
+    let (_, radius) = scene.bounds.bounding_sphere();
+    scene
+        .lights
+        .lights()
+        .iter()
+        .map(|l| match l {
+            Light::Area(a) => std::f32::consts::PI * a.area() * luminance(a.radiance()),
+            Light::Env(e) => std::f32::consts::PI * radius * radius * e.integral_luminance(),
+            Light::Constant { .. } => 0.0,
+        })
+        .collect()
+}
+
+#[derive(Default)]
+struct Traced {
+    photons: Vec<Photon>,
+    rays: u64,
+    capped: u64,
+}
+
+/// Emits `n` photons for pass `pass` and builds their kd-tree.
+pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: u64) -> (PhotonMap, PhotonPassStats) {
+    let t0 = Instant::now();
+    let powers = photon_light_powers(scene);
+    let total_power: f32 = powers.iter().sum();
+    let selection = Distribution1D::new(&powers);
+    let (center, radius) = scene.bounds.bounding_sphere();
+    const CHUNK: u64 = 4096;
+    let chunks = n.div_ceil(CHUNK);
+    let traced: Vec<Traced> = match &selection {
+        None => Vec::new(),
+        Some(selection) => (0..chunks)
+            .into_par_iter()
+            .map(|c| {
+                let mut out = Traced::default();
+                for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                    let mut sampler = Sampler::for_photon(seed, pass, i);
+                    trace_one(scene, accel, selection, n, center, radius, &mut sampler, &mut out);
+                }
+                out
+            })
+            .collect(),
+    };
+    let mut photons = Vec::with_capacity(traced.iter().map(|t| t.photons.len()).sum());
+    let mut rays = 0;
+    let mut capped = 0;
+    for t in traced {
+        photons.extend_from_slice(&t.photons);
+        rays += t.rays;
+        capped += t.capped;
+    }
+    let seconds_trace = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let stored = photons.len() as u64;
+    let tree = KdTree::build(photons);
+    let stats = PhotonPassStats {
+        emitted: n,
+        stored,
+        bytes: tree.memory_bytes() as u64,
+        rays,
+        chains_capped: capped,
+        seconds_trace,
+        seconds_kdtree: t1.elapsed().as_secs_f64(),
+    };
+    (PhotonMap { tree, emitted: n, total_power }, stats)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, n: u64, center: Vec3, radius: f32, sampler: &mut Sampler, out: &mut Traced) {
+    let (light_index, pmf, _) = selection.sample_discrete(sampler.next_1d());
+    let u_a = sampler.next_2d();
+    let u_b = sampler.next_2d();
+    let u_c = sampler.next_1d();
+    let es = match &scene.lights.lights()[light_index] {
+        Light::Area(a) => a.sample_le(u_a, u_b, u_c),
+        Light::Env(e) => e.sample_le(u_a, u_b, center, radius),
+        Light::Constant { .. } => None,
+    };
+    let Some(es) = es else { return };
+    let pdf = pmf * es.pdf_a * es.pdf_w_dir;
+    let le_lum = luminance(es.le);
+    if !(pdf > 0.0) || le_lum <= 0.0 {
+        return;
+    }
+    let cos = es.n.dot(es.dir).abs();
+    // Power = Le·|cos θ′| / (N·p): method.md §2 with the exact sampling pdf.
+    let mut power = es.le * (cos / (n as f32 * pdf));
+    let mut ray = crate::math::Ray::new(es.origin, es.dir);
+    let mut delta_bounces = 0u32;
+    loop {
+        out.rays += 1;
+        let Some(hit) = accel.intersect(&ray) else { return };
+        let si = scene.interaction(&ray, &hit);
+        let bsdf = &scene.bsdfs[si.material as usize];
+        let wi_world = -ray.dir.normalize();
+        if delta_bounces > 0 && bsdf.has_non_delta() {
+            out.photons.push(Photon::new(si.p, wi_world, power, le_lum));
+        }
+        if !bsdf.has_delta() {
+            return;
+        }
+        if delta_bounces >= MAX_DELTA_CHAIN {
+            out.capped += 1;
+            return;
+        }
+        let wo_local = si.frame.to_local(wi_world);
+        let Some(bs) = bsdf.sample(wo_local, sampler.next_1d(), sampler.next_2d(), TransportMode::Importance) else { return };
+        if !bs.delta {
+            // The first hit chose a non-delta lobe (not a caustic photon), or a later one did after storing.
+            return;
+        }
+        power *= bs.weight;
+        if power.max_element() <= 0.0 {
+            return;
+        }
+        delta_bounces += 1;
+        ray = si.spawn_ray(si.frame.to_world(bs.wi_local));
+    }
+}

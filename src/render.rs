@@ -1,0 +1,203 @@
+//! The render driver: passes of eye samples over tiles (rayon), an optional photon pass per render
+//! pass, Ctrl-C / time-limit handling, and the statistics every render reports (method.md §5).
+//!
+//! A *pass* renders `pass_spp` samples for every pixel of the crop window. With a sample budget and no
+//! time limit there is one pass of `spp` samples and one photon map (the paper's configuration: α = spp).
+//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map with its
+//! own seed (α = `pass_spp`), and the film averages over passes.
+//!
+//! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
+//! over the whole render, so an image is bit-identical whatever the number of threads.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::accel::Accel;
+use crate::film::{Film, TileBuffer};
+use crate::integrator::{CausticEstimator, PathStats, PathTracer};
+use crate::photon::kdtree::KnnResult;
+use crate::photon::{trace_photons, PhotonMap, PhotonPassStats};
+use crate::sampler::Sampler;
+use crate::scene::{Estimator, Scene};
+
+/// Tile edge in pixels.
+pub const TILE_SIZE: u32 = 16;
+
+/// What to render; command-line values already merged over the scene file's.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    /// Total samples per pixel (ignored with a time limit, which renders passes until time is up).
+    pub spp: u32,
+    /// Samples per pixel of one pass (clamped to `spp` without a time limit).
+    pub pass_spp: u32,
+    pub time_limit: Option<f64>,
+    pub seed: u64,
+    pub estimator: Estimator,
+    /// Photons emitted per photon pass (`N` of method.md §2).
+    pub photons: u64,
+    pub knn: u32,
+    pub max_radius: f32,
+}
+
+/// Why the photon pass (or another phase) did not run.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct SkippedPhase {
+    pub phase: String,
+    pub reason: String,
+}
+
+/// Figures after each pass, for progress lines and error-vs-time logs.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassInfo {
+    pub pass: u32,
+    pub seconds: f64,
+    pub spp: u32,
+    pub photons_emitted: u64,
+}
+
+/// Statistics of a render's phases (method.md §5).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RenderPhaseStats {
+    pub spp: u32,
+    pub passes: u32,
+    pub seconds_render: f64,
+    pub seconds_photons: f64,
+    pub seconds_kdtree: f64,
+    pub rays_traced: u64,
+    pub knn_queries: u64,
+    pub photons_emitted: u64,
+    pub photons_stored: u64,
+    pub photon_bytes: u64,
+    pub photon_chains_capped: u64,
+    pub partial: bool,
+    pub skipped: Vec<SkippedPhase>,
+}
+
+/// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
+/// BSDF means no caustic path; no photon-emitting light means no photon).
+#[must_use]
+pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), String> {
+    if estimator == Estimator::Pt {
+        return Err("estimator pt uses no photons".into());
+    }
+    if !scene.has_delta_bsdf() {
+        return Err("no delta surface in the scene, so no caustic path exists".into());
+    }
+    if !scene.lights.lights().iter().any(crate::photon::light_emits_photons) {
+        return Err("no area light or environment map emits photons".into());
+    }
+    Ok(())
+}
+
+/// Renders `scene` into `film`. `cancel` is polled per tile (Ctrl-C); `on_pass` sees the film after
+/// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
+pub fn render(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    film: &mut Film,
+    cancel: &AtomicBool,
+    mut on_pass: impl FnMut(&Film, &PassInfo),
+    on_tile: &(dyn Fn(u64) + Sync),
+) -> RenderPhaseStats {
+    let start = Instant::now();
+    let mut stats = RenderPhaseStats::default();
+    let photons_needed = photon_pass_needed(scene, settings.estimator);
+    if let Err(reason) = &photons_needed {
+        stats.skipped.push(SkippedPhase { phase: "caustic photon pass".into(), reason: reason.clone() });
+    }
+    if !scene.lights.has_env() {
+        stats.skipped.push(SkippedPhase { phase: "environment importance sampling".into(), reason: "no environment map in the scene".into() });
+    }
+    let pass_spp = if settings.time_limit.is_some() { settings.pass_spp.max(1) } else { settings.pass_spp.clamp(1, settings.spp.max(1)) };
+    let tiles = film.tiles(TILE_SIZE);
+    let width = u64::from(film.width());
+    let mut spp_done: u32 = 0;
+    let mut pass: u32 = 0;
+    loop {
+        let this_pass = match settings.time_limit {
+            Some(_) => pass_spp,
+            None => pass_spp.min(settings.spp.saturating_sub(spp_done)),
+        };
+        if this_pass == 0 || cancel.load(Ordering::Relaxed) {
+            break;
+        }
+        // Photon pass for this render pass.
+        let mut map: Option<PhotonMap> = None;
+        if photons_needed.is_ok() {
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass));
+            stats.seconds_photons += ps.seconds_trace;
+            stats.seconds_kdtree += ps.seconds_kdtree;
+            stats.photons_emitted += ps.emitted;
+            stats.photons_stored += ps.stored;
+            stats.photon_bytes = stats.photon_bytes.max(ps.bytes);
+            stats.photon_chains_capped += ps.chains_capped;
+            stats.rays_traced += ps.rays;
+            map = Some(m);
+        }
+        let tracer = PathTracer {
+            scene,
+            accel,
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius),
+            alpha: this_pass as f32,
+        };
+        let t_pass = Instant::now();
+        let results: Vec<Option<(TileBuffer, PathStats)>> = tiles
+            .par_iter()
+            .map(|tile| {
+                if cancel.load(Ordering::Relaxed) {
+                    return None;
+                }
+                let mut buf = film.tile_buffer(tile);
+                let mut ps = PathStats::default();
+                let mut knn = KnnResult::default();
+                for y in tile.y0..tile.y1 {
+                    for x in tile.x0..tile.x1 {
+                        let pixel = u64::from(y) * width + u64::from(x);
+                        for s in spp_done..spp_done + this_pass {
+                            let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
+                            let j = sampler.next_2d();
+                            let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
+                            let l = tracer.li(ray, &mut sampler, &mut ps, &mut knn);
+                            buf.add(x, y, l);
+                        }
+                    }
+                }
+                on_tile(u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * u64::from(this_pass));
+                Some((buf, ps))
+            })
+            .collect();
+        // Tiles cancelled by Ctrl-C come back as None; finished tiles are kept (the film counts samples
+        // per pixel, so every pixel's mean stays unbiased) and the render is marked partial.
+        let cancelled = results.iter().any(Option::is_none);
+        for (buf, ps) in results.into_iter().flatten() {
+            film.merge_tile(&buf);
+            stats.rays_traced += ps.rays;
+            stats.knn_queries += ps.knn_queries;
+        }
+        if cancelled {
+            stats.partial = true;
+            stats.seconds_render += t_pass.elapsed().as_secs_f64();
+            break;
+        }
+        stats.seconds_render += t_pass.elapsed().as_secs_f64();
+        spp_done += this_pass;
+        pass += 1;
+        let info = PassInfo { pass, seconds: start.elapsed().as_secs_f64(), spp: spp_done, photons_emitted: stats.photons_emitted };
+        on_pass(film, &info);
+        if let Some(limit) = settings.time_limit {
+            if start.elapsed().as_secs_f64() >= limit {
+                break;
+            }
+        }
+    }
+    if cancel.load(Ordering::Relaxed) {
+        stats.partial = true;
+    }
+    stats.spp = spp_done;
+    stats.passes = pass;
+    stats
+}
