@@ -10,6 +10,8 @@
 
 pub mod accel;
 pub mod error;
+pub mod film;
 pub mod math;
 pub mod mesh;
+pub mod report;
 pub mod sampler;
