@@ -11,6 +11,22 @@ pub enum MeshError {
     Parse { path: PathBuf, message: String },
     #[error("{path}: unsupported mesh format (expected .obj, .ply or .ply.gz)")]
     UnsupportedFormat { path: PathBuf },
+    #[error("{path}: triangle {triangle} refers to vertex {index}, but there are only {vertex_count} vertices")]
+    IndexOutOfRange {
+        path: PathBuf,
+        triangle: usize,
+        index: i64,
+        vertex_count: usize,
+    },
+    #[error("{path}: vertex {vertex} has a non-finite {attribute} {value}")]
+    NonFinite {
+        path: PathBuf,
+        vertex: usize,
+        attribute: &'static str,
+        value: String,
+    },
+    #[error("{path}: contains no triangles")]
+    NoTriangles { path: PathBuf },
 }
 
 /// Errors from building an acceleration structure.

@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod accel;
+pub mod bench;
 pub mod error;
 pub mod film;
 pub mod math;

@@ -3,10 +3,59 @@
 //! A [`TriangleMesh`] is an indexed triangle list with optional per-vertex normals and uvs.
 //! Scenes flatten all their meshes into one soup, so a triangle's index in the soup is the
 //! `prim` that both intersection backends report.
+//!
+//! [`load_mesh`] picks the reader from the file name (`.obj`, `.ply`, `.ply.gz`, any case) and
+//! checks what every backend relies on: finite coordinates and indices in range. Errors name the file.
 
+pub mod obj;
+pub mod ply;
 pub mod shapes;
 
+use std::path::Path;
+
+use crate::error::MeshError;
 use crate::math::{Aabb, Vec2, Vec3};
+
+/// The mesh file formats [`load_mesh`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFormat {
+    Obj,
+    Ply,
+    /// A gzip-compressed PLY file (`.ply.gz`).
+    PlyGz,
+}
+
+impl MeshFormat {
+    /// The format named by the file's extension (case-insensitive), if it is one we read.
+    #[must_use]
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        if name.ends_with(".obj") {
+            Some(Self::Obj)
+        } else if name.ends_with(".ply") {
+            Some(Self::Ply)
+        } else if name.ends_with(".ply.gz") {
+            Some(Self::PlyGz)
+        } else {
+            None
+        }
+    }
+}
+
+/// Loads a triangle mesh from an OBJ, PLY or gzipped PLY file, chosen by extension (case-insensitive).
+///
+/// Polygons are triangulated as fans. The result has at least one triangle, only finite positions,
+/// normals and uvs, and every index in range.
+pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
+    let mesh = match MeshFormat::from_path(path) {
+        Some(MeshFormat::Obj) => obj::load_obj(path)?,
+        Some(MeshFormat::Ply) => ply::load_ply(path)?,
+        Some(MeshFormat::PlyGz) => ply::load_ply_gz(path)?,
+        None => return Err(MeshError::UnsupportedFormat { path: path.to_path_buf() }),
+    };
+    mesh.validate(path)?;
+    Ok(mesh)
+}
 
 /// An indexed triangle mesh.
 #[derive(Clone, Debug, Default)]
@@ -37,13 +86,65 @@ impl TriangleMesh {
         [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
+    /// Checks the invariants every backend and the shading code rely on: at least one triangle, indices
+    /// in range, finite positions/normals/uvs, attribute arrays as long as `positions`. `path` names the
+    /// source in the error.
+    pub fn validate(&self, path: &Path) -> Result<(), MeshError> {
+        let path_buf = || path.to_path_buf();
+        if self.indices.is_empty() {
+            return Err(MeshError::NoTriangles { path: path_buf() });
+        }
+        let vertex_count = self.positions.len();
+        for (triangle, tri) in self.indices.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
+                return Err(MeshError::IndexOutOfRange {
+                    path: path_buf(),
+                    triangle,
+                    index: i64::from(index),
+                    vertex_count,
+                });
+            }
+        }
+        let non_finite = |vertex: usize, attribute: &'static str, value: String| MeshError::NonFinite {
+            path: path_buf(),
+            vertex,
+            attribute,
+            value,
+        };
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(non_finite(i, "position", format!("{}", self.positions[i])));
+        }
+        let length_mismatch = |what: &str, n: usize| MeshError::Parse {
+            path: path_buf(),
+            message: format!("{n} {what} for {vertex_count} vertices"),
+        };
+        if let Some(normals) = &self.normals {
+            if normals.len() != vertex_count {
+                return Err(length_mismatch("normals", normals.len()));
+            }
+            if let Some(i) = normals.iter().position(|n| !n.is_finite()) {
+                return Err(non_finite(i, "normal", format!("{}", normals[i])));
+            }
+        }
+        if let Some(uvs) = &self.uvs {
+            if uvs.len() != vertex_count {
+                return Err(length_mismatch("uvs", uvs.len()));
+            }
+            if let Some(i) = uvs.iter().position(|uv| !uv.is_finite()) {
+                return Err(non_finite(i, "uv", format!("{}", uvs[i])));
+            }
+        }
+        Ok(())
+    }
+
     /// Appends `other`, re-basing its indices. Normals/uvs are kept only if both have them.
     pub fn append(&mut self, other: &TriangleMesh) {
         let base = self.positions.len() as u32;
         let both_normals = (self.positions.is_empty() || self.normals.is_some()) && other.normals.is_some();
         let both_uvs = (self.positions.is_empty() || self.uvs.is_some()) && other.uvs.is_some();
         self.positions.extend_from_slice(&other.positions);
-        self.indices.extend(other.indices.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+        self.indices
+            .extend(other.indices.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
         self.normals = if both_normals {
             let mut n = self.normals.take().unwrap_or_default();
             n.extend_from_slice(other.normals.as_deref().unwrap_or_default());

@@ -1,0 +1,252 @@
+//! The benchmark's three ray sets, generated deterministically from a mesh (every ray is a pure function
+//! of (seed, set, index), so the sets do not depend on the thread count and are identical for every backend):
+//! - *primary*: a pinhole camera outside the bounding sphere looking at its centre; a square image whose
+//!   rays are stored tile by tile (16×16 pixels, scanline order inside a tile and between tiles), so each
+//!   parallel work item of [`CHUNK`] rays is one coherent tile;
+//! - *incoherent*: origins uniform over the surface area, offset by the one offset rule
+//!   ([`offset_ray_origin`] with [`barycentric_point_error`]), cosine-distributed directions about the
+//!   geometric normal of a randomly chosen side;
+//! - *shadow*: occlusion between two random surface points, both ends offset, `t ∈ [0, 1 − 10⁻⁴]` with the
+//!   unnormalised direction between the offset end points (pbrt-v4's `SpawnRayTo`).
+
+use rayon::prelude::*;
+
+use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Ray, Vec3};
+use crate::mesh::TriangleMesh;
+use crate::sampler::Sampler;
+
+/// Seed of every benchmark ray set (fixed: runs are comparable across machines and commits).
+const SEED: u64 = 0xbe7c_4000;
+/// Image tile edge in pixels.
+pub const TILE: usize = 16;
+/// Rays per parallel work item: one primary tile (the other sets use the same granularity).
+pub const CHUNK: usize = TILE * TILE;
+/// The camera's vertical (and horizontal) field of view.
+const FOV_DEGREES: f32 = 40.0;
+/// Shadow rays stop this far (in units of their direction) before their end point (pbrt-v4's `ShadowEpsilon`).
+const SHADOW_EPSILON: f32 = 1e-4;
+
+/// The three benchmark ray sets of one input.
+pub struct RaySets {
+    pub primary: Vec<Ray>,
+    pub incoherent: Vec<Ray>,
+    pub shadow: Vec<Ray>,
+}
+
+impl RaySets {
+    /// Generates `n` incoherent and `n` shadow rays and a square image of about `n` primary rays.
+    /// Every ray is a pure function of (seed, set, index), so the sets do not depend on threads.
+    pub fn generate(mesh: &TriangleMesh, n: usize) -> anyhow::Result<Self> {
+        let surface = SurfaceSampler::new(mesh)?;
+        let primary = primary_rays(mesh, n);
+        let incoherent = (0..n as u64)
+            .into_par_iter()
+            .map(|i| {
+                let mut s = Sampler::for_key(SEED, 1, i);
+                let p = surface.sample(&mut s);
+                let ng = if s.next_1d() < 0.5 { p.ng } else { -p.ng };
+                let dir = Frame::from_normal(ng).to_world(cosine_hemisphere(s.next_1d(), s.next_1d()));
+                Ray::new(offset_ray_origin(p.p, p.p_error, ng, dir), dir)
+            })
+            .collect();
+        let shadow = (0..n as u64)
+            .into_par_iter()
+            .map(|i| {
+                let mut s = Sampler::for_key(SEED, 2, i);
+                let (a, b) = (surface.sample(&mut s), surface.sample(&mut s));
+                let from = offset_ray_origin(a.p, a.p_error, a.ng, b.p - a.p);
+                let to = offset_ray_origin(b.p, b.p_error, b.ng, a.p - b.p);
+                Ray::segment(from, to - from, 0.0, 1.0 - SHADOW_EPSILON)
+            })
+            .collect();
+        Ok(Self {
+            primary,
+            incoherent,
+            shadow,
+        })
+    }
+}
+
+/// Edge of the primary image: the multiple of [`TILE`] nearest to √n (at least one tile).
+#[must_use]
+pub fn primary_side(n: usize) -> usize {
+    (((n as f64).sqrt() / TILE as f64).round() as usize).max(1) * TILE
+}
+
+/// A pinhole camera outside the mesh's bounding sphere looking at its centre, one jittered ray per
+/// pixel, stored tile by tile (see the module docs).
+fn primary_rays(mesh: &TriangleMesh, n: usize) -> Vec<Ray> {
+    let side = primary_side(n);
+    let (center, radius) = mesh.bounds().bounding_sphere();
+    let half_fov_tan = (0.5 * FOV_DEGREES).to_radians().tan();
+    // The sphere fits in the view when the distance is radius / sin(fov/2); 5% margin.
+    let distance = 1.05 * radius.max(f32::MIN_POSITIVE) / (0.5 * FOV_DEGREES).to_radians().sin();
+    let back = Vec3::new(0.55, 0.4, 0.75).normalize();
+    let eye = center + distance * back;
+    let forward = -back;
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let tiles_per_row = side / TILE;
+    (0..side * side)
+        .into_par_iter()
+        .map(|i| {
+            let (tile, in_tile) = (i / CHUNK, i % CHUNK);
+            let x = (tile % tiles_per_row) * TILE + in_tile % TILE;
+            let y = (tile / tiles_per_row) * TILE + in_tile / TILE;
+            let mut s = Sampler::for_key(SEED, 0, (y * side + x) as u64);
+            let ndc_x = 2.0 * (x as f32 + s.next_1d()) / side as f32 - 1.0;
+            let ndc_y = 1.0 - 2.0 * (y as f32 + s.next_1d()) / side as f32;
+            let dir = forward + half_fov_tan * (ndc_x * right + ndc_y * up);
+            Ray::new(eye, dir.normalize())
+        })
+        .collect()
+}
+
+/// Cosine-weighted direction about +z (Malley's method: uniform disk point lifted to the hemisphere,
+/// pbrt-v4 §A.5.3; the plain polar disk map suffices for a benchmark).
+#[must_use]
+fn cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt())
+}
+
+/// A point on the surface with its reconstruction error bound and unit geometric normal.
+struct SurfacePoint {
+    p: Vec3,
+    p_error: Vec3,
+    ng: Vec3,
+}
+
+/// Samples points uniformly by area over a mesh (triangle by its area, then uniform barycentrics).
+struct SurfaceSampler<'a> {
+    mesh: &'a TriangleMesh,
+    /// Running sums of triangle areas (f64, so a million small triangles sum exactly enough).
+    cdf: Vec<f64>,
+}
+
+impl<'a> SurfaceSampler<'a> {
+    fn new(mesh: &'a TriangleMesh) -> anyhow::Result<Self> {
+        let mut total = 0.0f64;
+        let cdf: Vec<f64> = (0..mesh.triangle_count())
+            .map(|i| {
+                let [a, b, c] = mesh.triangle(i);
+                total += 0.5 * f64::from((b - a).cross(c - a).length());
+                total
+            })
+            .collect();
+        if !(total > 0.0 && total.is_finite()) {
+            anyhow::bail!("the mesh has no surface area to sample ray origins on (total area {total})");
+        }
+        Ok(Self { mesh, cdf })
+    }
+
+    fn sample(&self, s: &mut Sampler) -> SurfacePoint {
+        let total = *self.cdf.last().expect("checked non-empty in new");
+        let target = f64::from(s.next_1d()) * total;
+        // First triangle whose running sum exceeds the target; zero-area triangles are never chosen.
+        let tri = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        let corners = self.mesh.triangle(tri);
+        // Uniform barycentrics: b0 = 1 − √u1, b1 = u2·√u1 (pbrt-v4 §6.5.4, SampleUniformTriangle).
+        let (u1, u2) = (s.next_1d(), s.next_1d());
+        let su = u1.sqrt();
+        let b = [1.0 - su, u2 * su, su - u2 * su];
+        let p = b[0] * corners[0] + b[1] * corners[1] + b[2] * corners[2];
+        let ng = (corners[1] - corners[0])
+            .cross(corners[2] - corners[0])
+            .try_normalize()
+            .unwrap_or(Vec3::Z);
+        SurfacePoint {
+            p,
+            p_error: barycentric_point_error(b, corners),
+            ng,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::brute::BruteForce;
+    use crate::accel::Accel;
+    use crate::mesh::shapes;
+
+    #[test]
+    fn primary_image_is_whole_tiles() {
+        assert_eq!(primary_side(1), TILE);
+        assert_eq!(primary_side(1_000_000), 1008);
+    }
+
+    #[test]
+    fn ray_sets_are_deterministic_and_hit_the_mesh() {
+        let mesh = shapes::sphere(Vec3::ZERO, 1.0, 16, 32);
+        let a = RaySets::generate(&mesh, 1000).unwrap();
+        let b = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| RaySets::generate(&mesh, 1000).unwrap());
+        assert_eq!(a.primary, b.primary);
+        assert_eq!(a.incoherent, b.incoherent);
+        assert_eq!(a.shadow, b.shadow);
+        assert_eq!(a.primary.len(), 32 * 32);
+        let brute = BruteForce::new(&mesh.positions, &mesh.indices);
+        // The camera frames the bounding sphere: the tiles at the image centre all hit the sphere, the
+        // corner pixels miss it.
+        let tiles_per_row = 32 / TILE;
+        let pixel = |x: usize, y: usize| a.primary[((y / TILE) * tiles_per_row + x / TILE) * CHUNK + (y % TILE) * TILE + x % TILE];
+        for (x, y) in (12..20).flat_map(|x| (12..20).map(move |y| (x, y))) {
+            assert!(brute.intersect(&pixel(x, y)).is_some(), "pixel {x} {y}");
+        }
+        assert!(brute.intersect(&pixel(31, 31)).is_none() && brute.intersect(&pixel(31, 0)).is_none());
+        assert!(brute.intersect(&a.primary[0]).is_none());
+        // Origins are offset off the surface: no ray re-hits the surface it starts on. The sphere is
+        // convex and closed, so rays that clearly leave it escape and rays that clearly enter it hit the
+        // far side (facet normals deviate from the radial direction by < 0.1 rad here, hence 0.3).
+        let mut checked = 0;
+        for r in &a.incoherent {
+            let hit = brute.intersect(r);
+            assert!(!matches!(hit, Some(h) if h.t <= 1e-3), "{r:?} {hit:?}");
+            let cos = r.dir.normalize().dot(r.origin.normalize());
+            if cos.abs() > 0.3 {
+                assert_eq!(hit.is_none(), cos > 0.0, "{r:?} {hit:?}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 500, "{checked}");
+    }
+
+    #[test]
+    fn shadow_rays_between_different_faces_of_a_convex_body_are_unoccluded() {
+        // Two points on different faces of a cube see each other through its inside; both end offsets
+        // must keep the segment off both faces. (Pairs on one face are coplanar: the two offsets may put
+        // the ends on opposite sides of the plane, so those are not checked.)
+        let cube = shapes::cube();
+        let sets = RaySets::generate(&cube, 2000).unwrap();
+        let brute = BruteForce::new(&cube.positions, &cube.indices);
+        let face = |p: Vec3| (0..3).find(|&k| (p[k].abs() - 1.0).abs() < 1e-4).map(|k| (k, p[k] > 0.0));
+        let mut checked = 0;
+        for r in &sets.shadow {
+            let (from, to) = (face(r.origin), face(r.origin + r.dir));
+            assert!(from.is_some() && to.is_some(), "{r:?}");
+            if from != to {
+                assert!(!brute.occluded(r), "{r:?}");
+                checked += 1;
+            }
+        }
+        // Different faces with probability 5/6.
+        assert!(checked > 1500, "{checked}");
+        // The same segments through a wall in the middle of the cube are blocked when they cross it.
+        let mut walled = cube.clone();
+        let mut wall = shapes::rectangle();
+        wall.positions.iter_mut().for_each(|p| *p *= 2.0);
+        walled.append(&wall);
+        let brute = BruteForce::new(&walled.positions, &walled.indices);
+        for r in &sets.shadow {
+            let (z0, z1) = (r.origin.z, (r.origin + r.dir).z);
+            if z0 * z1 < -0.01 {
+                assert!(brute.occluded(r), "{r:?}");
+            }
+        }
+    }
+}
