@@ -9,7 +9,9 @@
 #![deny(unsafe_code)]
 
 pub mod accel;
+pub mod bsdf;
 pub mod error;
 pub mod math;
 pub mod mesh;
 pub mod sampler;
+pub mod sampling;
