@@ -10,9 +10,11 @@
 
 pub mod accel;
 pub mod bench;
+pub mod bsdf;
 pub mod error;
 pub mod film;
 pub mod math;
 pub mod mesh;
 pub mod report;
 pub mod sampler;
+pub mod sampling;

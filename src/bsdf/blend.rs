@@ -1,0 +1,84 @@
+//! Linear blend `(1 − w)·bsdf_0 + w·bsdf_1` (Mitsuba's `blendbsdf`).
+//!
+//! Sampling picks `bsdf_1` with probability `w` and `bsdf_0` with `1 − w` (the blend weights), re-using
+//! the rescaled `u_lobe` inside the chosen component. Unbiased and MIS-consistent:
+//! - a **non-delta** sample from either component is completed with the *mixture*:
+//!   `pdf_w = (1 − w)·pdf_0 + w·pdf_1` (the density of the whole sampler producing `wi` through any
+//!   non-delta lobe, Veach 1997 §9.2.2 "one-sample model") and `weight = f_mix·|cos θi|/pdf_w`, where
+//!   `f_mix = (1 − w)·f_0 + w·f_1`. These are exactly `Bsdf::f`/`Bsdf::pdf_w` of the blend, so the pdf
+//!   reported at sample time equals `pdf_w()` and `E[weight] = ∫ f_mix |cos|`;
+//! - a **delta** sample from component `c` (chosen with probability `p_c`, its delta lobe with `q`) has
+//!   `pdf_w = p_c·q` and weight `(w_c/p_c)·(T/q)` = the component's weight, since `p_c = w_c`.
+//!   Nested blends compose by the same rules.
+
+use super::{Bsdf, BsdfSample, TransportMode, ONE_MINUS_EPSILON};
+use crate::math::{Vec2, Vec3};
+
+/// The blend weight as used: clamped to [0, 1] (the scene loader rejects other values; NaN → 0).
+#[inline]
+fn clamp_weight(weight: f32) -> f32 {
+    debug_assert!((0.0..=1.0).contains(&weight), "blend weight {weight} outside [0, 1]");
+    if weight > 0.0 {
+        weight.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+#[must_use]
+pub(super) fn f(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+    let w = clamp_weight(weight);
+    let mut sum = Vec3::ZERO;
+    if w < 1.0 {
+        sum += (1.0 - w) * bsdf_0.f(wo, wi, mode);
+    }
+    if w > 0.0 {
+        sum += w * bsdf_1.f(wo, wi, mode);
+    }
+    sum
+}
+
+#[must_use]
+pub(super) fn pdf_w(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+    let w = clamp_weight(weight);
+    let mut sum = 0.0;
+    if w < 1.0 {
+        sum += (1.0 - w) * bsdf_0.pdf_w(wo, wi);
+    }
+    if w > 0.0 {
+        sum += w * bsdf_1.pdf_w(wo, wi);
+    }
+    sum
+}
+
+#[allow(clippy::too_many_arguments)]
+#[must_use]
+pub(super) fn sample(
+    blend: &Bsdf,
+    weight: f32,
+    bsdf_0: &Bsdf,
+    bsdf_1: &Bsdf,
+    wo: Vec3,
+    u_lobe: f32,
+    u_dir: Vec2,
+    mode: TransportMode,
+) -> Option<BsdfSample> {
+    let w = clamp_weight(weight);
+    let p0 = 1.0 - w;
+    // Select with probability (1 − w | w) and rescale u_lobe to [0, 1) for the component.
+    let (component, p_sel, u_rest) = if u_lobe < p0 {
+        (bsdf_0, p0, u_lobe / p0)
+    } else {
+        (bsdf_1, w, (u_lobe - p0) / w)
+    };
+    let s = component.sample(wo, u_rest.min(ONE_MINUS_EPSILON), u_dir, mode)?;
+    if s.delta {
+        // weight: (w_c / p_c)·s.weight with p_c = w_c.
+        Some(BsdfSample {
+            pdf_w: p_sel * s.pdf_w,
+            ..s
+        })
+    } else {
+        blend.non_delta_sample(wo, s.wi_local, mode)
+    }
+}

@@ -1,0 +1,202 @@
+//! Surface scattering: a closed enum of BSDFs, evaluated and sampled in the local shading frame
+//! (normal = +z, `crate::math::Frame`). All directions point away from the surface.
+//!
+//! Conventions (SmallVCM-style names; CONTRACTS.md):
+//! - `f(wo, wi)` is the BSDF value **without** the cosine and covers non-delta lobes only.
+//! - `pdf_w(wo, wi)` is the solid-angle density with which [`Bsdf::sample`] produces `wi` through its
+//!   non-delta lobes — for a blend the mixture over its components, exactly as sampled. `sample` computes the
+//!   pdf it reports by calling `pdf_w` (one code path per pdf, architecture.md habit 5), so MIS weights
+//!   computed from either side agree bit for bit.
+//! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
+//!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
+//! - Two-sided reflection: `Diffuse`, `Conductor` and `RoughConductor` reflect on both sides (when
+//!   `wo.z < 0` the configuration is mirrored to +z); `f = 0` when `wo` and `wi` lie on opposite sides.
+//!   `Dielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the exterior) is −z.
+//! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
+//!   `sample → None`. Nothing returns NaN for unit, finite inputs.
+//!
+//! Scene-file snippets these read (parsed by `scene`, Mitsuba 3 names):
+//! ```toml
+//! bsdf = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }
+//! bsdf = { type = "conductor", material = "Au" }              # or material = "none" (perfect mirror)
+//! bsdf = { type = "roughconductor", alpha = 0.2, material = "Cu" }
+//! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
+//! bsdf = { type = "blendbsdf", weight = 0.3, bsdf_0 = { ... }, bsdf_1 = { ... } }
+//! ```
+
+mod blend;
+mod conductor;
+mod dielectric;
+mod diffuse;
+mod roughconductor;
+#[cfg(test)]
+mod tests;
+
+pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
+pub use dielectric::fresnel_dielectric;
+
+use crate::math::{Vec2, Vec3};
+
+/// A BSDF (CONTRACTS.md). Parameters are validated by the scene loader; the evaluation routines stay
+/// NaN-free for any finite parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian reflection, `f = reflectance/π`.
+    Diffuse { reflectance: Vec3 },
+    /// Smooth conductor. `eta_k: None` = perfect mirror (Fresnel = 1), Mitsuba's material "none".
+    Conductor {
+        specular_reflectance: Vec3,
+        eta_k: Option<(Vec3, Vec3)>,
+    },
+    /// GGX (Trowbridge–Reitz), isotropic `alpha`, visible-normal sampling (Heitz 2018).
+    RoughConductor {
+        alpha: f32,
+        specular_reflectance: Vec3,
+        eta_k: Option<(Vec3, Vec3)>,
+    },
+    /// Smooth dielectric; `eta = int_ior / ext_ior`. The interior is on the -z side of the shading frame.
+    Dielectric { eta: f32 },
+    /// (1 − weight)·bsdf_0 + weight·bsdf_1.
+    Blend { weight: f32, bsdf_0: Box<Bsdf>, bsdf_1: Box<Bsdf> },
+}
+
+/// Which quantity a path carries: radiance (eye paths) or importance (photons). They differ only in
+/// the `1/η²` scaling of radiance refracted through a dielectric (Veach 1997 §5.2; pbrt-v4 §9.5.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
+}
+
+/// One sampled scattering direction.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi_local: Vec3,
+    /// f·|cos θi| / pdf for non-delta samples; the delta lobe's throughput / its selection probability for delta.
+    pub weight: Vec3,
+    /// Solid-angle pdf of the whole sampler for non-delta samples (mixture pdf for a blend: the same value
+    /// `pdf_w()` returns). For delta samples: the discrete probability of having chosen that delta lobe.
+    pub pdf_w: f32,
+    pub delta: bool,
+}
+
+/// The largest f32 below 1: remapped uniform numbers are clamped to it to stay in `[0, 1)`.
+pub(crate) const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON * 0.5;
+
+/// Mirror direction about the normal (+z) in the local frame.
+#[inline]
+#[must_use]
+pub(crate) fn reflect_z(w: Vec3) -> Vec3 {
+    Vec3::new(-w.x, -w.y, w.z)
+}
+
+/// Both directions strictly on the same side of the tangent plane (sign tests, so tiny `z` values
+/// cannot underflow a product to zero).
+#[inline]
+#[must_use]
+pub(crate) fn same_side(a: Vec3, b: Vec3) -> bool {
+    (a.z > 0.0 && b.z > 0.0) || (a.z < 0.0 && b.z < 0.0)
+}
+
+/// A usable outgoing direction: finite and not in the tangent plane.
+#[inline]
+#[must_use]
+pub(crate) fn valid_wo(wo: Vec3) -> bool {
+    wo.is_finite() && wo.z != 0.0
+}
+
+impl Bsdf {
+    /// BSDF value without the cosine, non-delta lobes only (0 for pure delta BSDFs).
+    #[must_use]
+    pub fn f(&self, wo_local: Vec3, wi_local: Vec3, mode: TransportMode) -> Vec3 {
+        if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        match self {
+            Bsdf::Diffuse { reflectance } => diffuse::f(*reflectance, wo_local, wi_local),
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
+            Bsdf::RoughConductor {
+                alpha,
+                specular_reflectance,
+                eta_k,
+            } => roughconductor::f(*alpha, *specular_reflectance, *eta_k, wo_local, wi_local),
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
+        }
+    }
+
+    /// Solid-angle density of sampling `wi_local` through the non-delta lobes (the mixture as sampled).
+    #[must_use]
+    pub fn pdf_w(&self, wo_local: Vec3, wi_local: Vec3) -> f32 {
+        if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
+            return 0.0;
+        }
+        match self {
+            Bsdf::Diffuse { .. } => diffuse::pdf_w(wo_local, wi_local),
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::RoughConductor { alpha, .. } => roughconductor::pdf_w(*alpha, wo_local, wi_local),
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::pdf_w(*weight, bsdf_0, bsdf_1, wo_local, wi_local),
+        }
+    }
+
+    /// Samples an incident direction. `u_lobe` chooses among lobes/components, `u_dir` the direction
+    /// within a lobe. `None` when nothing is scattered (tangent `wo`, a sample below the horizon, …).
+    #[must_use]
+    pub fn sample(&self, wo_local: Vec3, u_lobe: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        if !valid_wo(wo_local) {
+            return None;
+        }
+        let s = match self {
+            Bsdf::Diffuse { .. } => self.non_delta_sample(wo_local, diffuse::sample_wi(wo_local, u_dir)?, mode),
+            Bsdf::Conductor {
+                specular_reflectance,
+                eta_k,
+            } => Some(conductor::sample(*specular_reflectance, *eta_k, wo_local)),
+            Bsdf::RoughConductor { alpha, .. } => {
+                self.non_delta_sample(wo_local, roughconductor::sample_wi(*alpha, wo_local, u_dir)?, mode)
+            }
+            Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_local, u_lobe, mode),
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::sample(self, *weight, bsdf_0, bsdf_1, wo_local, u_lobe, u_dir, mode),
+        }?;
+        debug_assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0, "bad BSDF weight {s:?}");
+        debug_assert!(s.pdf_w > 0.0 && s.pdf_w.is_finite(), "bad BSDF pdf {s:?}");
+        Some(s)
+    }
+
+    /// Any delta lobe that can be sampled (Conductor, Dielectric, or a blend with one at non-zero weight).
+    #[must_use]
+    pub fn has_delta(&self) -> bool {
+        match self {
+            Bsdf::Diffuse { .. } | Bsdf::RoughConductor { .. } => false,
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => (*weight < 1.0 && bsdf_0.has_delta()) || (*weight > 0.0 && bsdf_1.has_delta()),
+        }
+    }
+
+    /// Any non-delta lobe that can be sampled.
+    #[must_use]
+    pub fn has_non_delta(&self) -> bool {
+        match self {
+            Bsdf::Diffuse { .. } | Bsdf::RoughConductor { .. } => true,
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => false,
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => {
+                (*weight < 1.0 && bsdf_0.has_non_delta()) || (*weight > 0.0 && bsdf_1.has_non_delta())
+            }
+        }
+    }
+
+    /// Completes a non-delta sample whose direction `wi` was drawn by this BSDF's sampler: the pdf is
+    /// `self.pdf_w` and the weight `self.f·|cos θi| / pdf_w`, from the same code that `pdf_w()` and `f()` run.
+    fn non_delta_sample(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+        let pdf_w = self.pdf_w(wo, wi);
+        if !(pdf_w > 0.0 && pdf_w.is_finite()) {
+            return None;
+        }
+        let weight = self.f(wo, wi, mode) * (wi.z.abs() / pdf_w);
+        weight.is_finite().then_some(BsdfSample {
+            wi_local: wi,
+            weight,
+            pdf_w,
+            delta: false,
+        })
+    }
+}

@@ -1,0 +1,459 @@
+//! Cross-cutting BSDF tests: χ² of every sampler (several incident angles and roughness values), sampled
+//! pdf == `pdf_w()`, sample weight == f·|cos|/pdf, reciprocity, two-sidedness, energy (white furnace,
+//! sampled albedo == integrated albedo), and no NaN at grazing angles.
+
+use super::*;
+use crate::sampler::Sampler;
+use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
+
+const ALPHAS: [f32; 4] = [0.05, 0.2, 0.6, 1.0];
+/// Incident polar angles in degrees; > 90° is below the surface (two-sided reflection).
+const THETAS: [f32; 6] = [0.0, 30.0, 60.0, 85.0, 120.0, 150.0];
+const AU_ETA: Vec3 = Vec3::new(0.143, 0.374, 1.442);
+const AU_K: Vec3 = Vec3::new(3.983, 2.385, 1.603);
+
+fn dir(theta_deg: f32, phi: f32) -> Vec3 {
+    let (st, ct) = theta_deg.to_radians().sin_cos();
+    Vec3::new(st * phi.cos(), st * phi.sin(), ct)
+}
+
+fn wo_at(theta_deg: f32) -> Vec3 {
+    // An azimuth that is not a cell edge of the χ² grid.
+    dir(theta_deg, 0.3)
+}
+
+fn diffuse(r: f32) -> Bsdf {
+    Bsdf::Diffuse {
+        reflectance: Vec3::splat(r),
+    }
+}
+
+fn rough(alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
+    Bsdf::RoughConductor {
+        alpha,
+        specular_reflectance: Vec3::ONE,
+        eta_k,
+    }
+}
+
+fn blend(weight: f32, b0: Bsdf, b1: Bsdf) -> Bsdf {
+    Bsdf::Blend {
+        weight,
+        bsdf_0: Box::new(b0),
+        bsdf_1: Box::new(b1),
+    }
+}
+
+fn mirror() -> Bsdf {
+    Bsdf::Conductor {
+        specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
+        eta_k: None,
+    }
+}
+
+/// χ² of the non-delta part of `bsdf`'s sampler at `wo`; delta samples count as "no direction".
+fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
+    test.run(
+        |s| {
+            let u_lobe = s.next_1d();
+            let u_dir = s.next_2d();
+            bsdf.sample(wo, u_lobe, u_dir, TransportMode::Radiance)
+                .filter(|b| !b.delta)
+                .map(|b| (b.wi_local, b.pdf_w))
+        },
+        |wi| bsdf.pdf_w(wo, wi),
+    )
+}
+
+/// Number of χ² tests in this file (6 diffuse + 4×6 rough conductor + 6×3 + 3 blends): the family the
+/// Šidák correction accounts for.
+const CHI2_FAMILY: usize = 51;
+
+fn run_chi2_suite(cases: &[(String, Bsdf, Vec3, PdfIntegral)], sample_count: usize) {
+    let test = Chi2Test {
+        sample_count,
+        test_count: CHI2_FAMILY,
+        ..Chi2Test::default()
+    };
+    let mut failed = Vec::new();
+    for (name, bsdf, wo, integral) in cases {
+        let out = chi2(
+            &Chi2Test {
+                integral: *integral,
+                ..test.clone()
+            },
+            bsdf,
+            *wo,
+        );
+        if !out.passed() {
+            failed.push(format!("{name}: {out}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+#[test]
+fn chi2_diffuse() {
+    let cases: Vec<_> = THETAS
+        .iter()
+        .map(|&t| (format!("diffuse θo {t}"), diffuse(0.5), wo_at(t), PdfIntegral::One))
+        .collect();
+    run_chi2_suite(&cases, 300_000);
+}
+
+fn chi2_roughconductor(alpha: f32) {
+    let cases: Vec<_> = THETAS
+        .iter()
+        // Samples reflected below the horizon are lost: ∫pdf ≤ 1 (= 1 only in the limit α → 0, θo → 0).
+        .map(|&t| {
+            (
+                format!("roughconductor α {alpha} θo {t}"),
+                rough(alpha, Some((AU_ETA, AU_K))),
+                wo_at(t),
+                PdfIntegral::AtMostOne,
+            )
+        })
+        .collect();
+    run_chi2_suite(&cases, 400_000);
+}
+
+#[test]
+fn chi2_roughconductor_alpha_0_05() {
+    chi2_roughconductor(ALPHAS[0]);
+}
+
+#[test]
+fn chi2_roughconductor_alpha_0_2() {
+    chi2_roughconductor(ALPHAS[1]);
+}
+
+#[test]
+fn chi2_roughconductor_alpha_0_6() {
+    chi2_roughconductor(ALPHAS[2]);
+}
+
+#[test]
+fn chi2_roughconductor_alpha_1() {
+    chi2_roughconductor(ALPHAS[3]);
+}
+
+#[test]
+fn chi2_blend_diffuse_roughconductor() {
+    let mut cases = Vec::new();
+    for t in THETAS {
+        for alpha in [0.05, 0.2] {
+            let b = blend(0.3, diffuse(0.8), rough(alpha, None));
+            cases.push((
+                format!("diffuse+roughconductor(α {alpha}) w 0.3, θo {t}"),
+                b,
+                wo_at(t),
+                PdfIntegral::AtMostOne,
+            ));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn chi2_blends_with_delta_components() {
+    let mut cases = Vec::new();
+    for t in THETAS {
+        // A delta component: its samples (probability 0.3) are the χ² "no direction" cell.
+        cases.push((
+            format!("diffuse+mirror w 0.3, θo {t}"),
+            blend(0.3, diffuse(0.8), mirror()),
+            wo_at(t),
+            PdfIntegral::AtMostOne,
+        ));
+    }
+    // Nested: diffuse + (roughconductor + glass).
+    let nested = blend(0.5, diffuse(0.5), blend(0.4, rough(0.3, None), Bsdf::Dielectric { eta: 1.5 }));
+    for t in [10.0, 70.0, 160.0] {
+        cases.push((format!("nested blend θo {t}"), nested.clone(), wo_at(t), PdfIntegral::AtMostOne));
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn chi2_detects_a_wrong_microfacet_pdf() {
+    // The rough-conductor sampler judged against the pdf of *full* (not visible) normal sampling,
+    // D(h)·cos θh/(4|wo·h|) (Walter 2007 eq. 14), which a mix-up would produce: the harness must reject it.
+    let (alpha, wo) = (0.6, wo_at(60.0));
+    let b = rough(alpha, None);
+    let wrong = |wi: Vec3| {
+        if wi.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wo + wi).normalize();
+        super::roughconductor::ggx_d(alpha, h) * h.z / (4.0 * wo.dot(h))
+    };
+    let out = Chi2Test {
+        sample_count: 200_000,
+        ..Chi2Test::default()
+    }
+    .run(
+        |s| {
+            let (u_lobe, u_dir) = (s.next_1d(), s.next_2d());
+            b.sample(wo, u_lobe, u_dir, TransportMode::Radiance)
+                .map(|x| (x.wi_local, wrong(x.wi_local)))
+        },
+        wrong,
+    );
+    assert!(!out.passed() && out.p_value < 1e-6, "{out}");
+}
+
+/// Every non-delta BSDF configuration the consistency tests sweep.
+fn non_delta_zoo() -> Vec<Bsdf> {
+    let mut v = vec![
+        diffuse(0.7),
+        Bsdf::Diffuse {
+            reflectance: Vec3::new(0.9, 0.5, 0.1),
+        },
+    ];
+    for alpha in ALPHAS {
+        v.push(rough(alpha, None));
+        v.push(Bsdf::RoughConductor {
+            alpha,
+            specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
+            eta_k: Some((AU_ETA, AU_K)),
+        });
+    }
+    v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
+    v.push(blend(0.3, diffuse(0.8), mirror()));
+    v.push(blend(
+        0.5,
+        diffuse(0.5),
+        blend(0.4, rough(0.3, None), Bsdf::Dielectric { eta: 1.5 }),
+    ));
+    v
+}
+
+#[test]
+fn sample_reports_pdf_w_and_weight_consistently() {
+    for (k, bsdf) in non_delta_zoo().iter().enumerate() {
+        for i in 0..20_000u64 {
+            let mut s = Sampler::for_key(31, k as u64, i);
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let Some(smp) = bsdf.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Radiance) else {
+                continue;
+            };
+            let wi = smp.wi_local;
+            assert!((wi.length() - 1.0).abs() < 1e-5 && smp.weight.is_finite() && smp.weight.min_element() >= 0.0);
+            if smp.delta {
+                assert!(smp.pdf_w > 0.0 && smp.pdf_w <= 1.0);
+                continue;
+            }
+            // Reflection only: wi on wo's side.
+            assert!(wi.z * wo.z > 0.0, "{bsdf:?}: wo {wo} wi {wi}");
+            // The same code computes both: bit-identical.
+            assert_eq!(smp.pdf_w, bsdf.pdf_w(wo, wi), "{bsdf:?}");
+            let want = bsdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs() / smp.pdf_w;
+            assert!(
+                (smp.weight - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-6),
+                "{bsdf:?}: {} vs {want}",
+                smp.weight
+            );
+        }
+    }
+}
+
+#[test]
+fn reciprocity_and_two_sidedness() {
+    let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
+    for (k, bsdf) in non_delta_zoo().iter().enumerate() {
+        let mut s = Sampler::for_key(32, k as u64, 0);
+        for _ in 0..5_000 {
+            let wo = crate::sampling::warp::square_to_uniform_hemisphere(s.next_2d());
+            let wi = crate::sampling::warp::square_to_uniform_hemisphere(s.next_2d());
+            let a = bsdf.f(wo, wi, TransportMode::Radiance);
+            let b = bsdf.f(wi, wo, TransportMode::Radiance);
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * a.max_element().max(1e-3),
+                "{bsdf:?}: f(wo,wi) {a} f(wi,wo) {b}"
+            );
+            // Mode does not matter for reflection.
+            assert_eq!(a, bsdf.f(wo, wi, TransportMode::Importance));
+            // Two-sided: the mirrored configuration reflects identically.
+            assert_eq!(a, bsdf.f(flip(wo), flip(wi), TransportMode::Radiance));
+            assert_eq!(bsdf.pdf_w(wo, wi), bsdf.pdf_w(flip(wo), flip(wi)));
+            // Nothing crosses the surface.
+            assert_eq!(bsdf.f(wo, flip(wi), TransportMode::Radiance), Vec3::ZERO);
+            assert_eq!(bsdf.pdf_w(flip(wo), wi), 0.0);
+        }
+    }
+}
+
+/// Monte Carlo albedo from the sampler: mean weight and its standard error (None counts as 0).
+fn sampled_albedo(bsdf: &Bsdf, wo: Vec3, n: u64) -> (Vec3, Vec3) {
+    let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+    for i in 0..n {
+        let mut s = Sampler::for_key(33, i, 0);
+        if let Some(smp) = bsdf.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Radiance) {
+            let w = smp.weight.as_dvec3();
+            sum += w;
+            sum2 += w * w;
+        }
+    }
+    let mean = sum / n as f64;
+    let var = (sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO);
+    let se = var / n as f64;
+    (mean.as_vec3(), glam::DVec3::new(se.x.sqrt(), se.y.sqrt(), se.z.sqrt()).as_vec3())
+}
+
+#[test]
+fn white_furnace_diffuse() {
+    for t in THETAS {
+        let (albedo, _) = sampled_albedo(&diffuse(1.0), wo_at(t), 50_000);
+        // Every weight is R = 1 up to rounding.
+        assert!((albedo - Vec3::ONE).abs().max_element() < 1e-5, "θo {t}: {albedo}");
+        let integral = integrate_sphere(|wi| diffuse(1.0).f(wo_at(t), wi, TransportMode::Radiance).x * wi.z.abs());
+        assert!((integral - 1.0).abs() < 1e-5, "θo {t}: ∫f cos = {integral}");
+    }
+}
+
+#[test]
+fn roughconductor_energy() {
+    for alpha in ALPHAS {
+        for t in THETAS {
+            let bsdf = rough(alpha, None);
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&bsdf, wo, 200_000);
+            let integral = integrate_sphere(|wi| bsdf.f(wo, wi, TransportMode::Radiance).x * wi.z.abs()) as f32;
+            // The sampler's estimate is unbiased: agrees with the integrated albedo within 5σ (+ quadrature error).
+            assert!(
+                (albedo.x - integral).abs() <= 5.0 * se.x + 2e-3 * integral,
+                "α {alpha} θo {t}: sampled {albedo} ± {se} vs ∫ {integral}"
+            );
+            // Energy: a white rough conductor does not create energy (weight = G1(wi) ≤ 1 per sample).
+            assert!(
+                albedo.max_element() <= 1.0 && integral <= 1.0 + 1e-3,
+                "α {alpha} θo {t}: {albedo} {integral}"
+            );
+        }
+    }
+    // Little energy lost to single scattering at low roughness near normal incidence.
+    for t in [0.0, 30.0] {
+        let (albedo, _) = sampled_albedo(&rough(0.2, None), wo_at(t), 100_000);
+        assert!(albedo.x >= 0.9 && albedo.x <= 1.0, "θo {t}: {albedo}");
+    }
+}
+
+#[test]
+fn blend_energy_is_the_weighted_sum() {
+    let (d, rc) = (Vec3::new(0.8, 0.6, 0.4), rough(0.2, Some((AU_ETA, AU_K))));
+    let b = blend(0.3, Bsdf::Diffuse { reflectance: d }, rc.clone());
+    for t in [0.0, 45.0, 80.0, 130.0] {
+        let wo = wo_at(t);
+        let (albedo, se) = sampled_albedo(&b, wo, 200_000);
+        let channel = |c: usize| integrate_sphere(|wi| rc.f(wo, wi, TransportMode::Radiance)[c] * wi.z.abs()) as f32;
+        let rc_albedo = Vec3::new(channel(0), channel(1), channel(2));
+        let want = 0.7 * d + 0.3 * rc_albedo;
+        assert!(
+            ((albedo - want).abs() - 5.0 * se - 2e-3 * want).max_element() <= 0.0,
+            "θo {t}: {albedo} ± {se} vs {want}"
+        );
+    }
+    // Diffuse + mirror: 0.7·R_d + 0.3·R_mirror.
+    let b = blend(0.3, Bsdf::Diffuse { reflectance: d }, mirror());
+    for t in [20.0, 100.0] {
+        let (albedo, se) = sampled_albedo(&b, wo_at(t), 200_000);
+        let want = 0.7 * d + 0.3 * Vec3::new(0.9, 0.8, 0.7);
+        assert!(
+            ((albedo - want).abs() - 5.0 * se).max_element() <= 1e-6,
+            "θo {t}: {albedo} ± {se} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn blend_delta_sample_reports_selection_probability() {
+    let b = blend(0.3, diffuse(0.8), mirror());
+    let wo = wo_at(40.0);
+    // u_lobe ≥ 0.7 selects the mirror.
+    let s = b.sample(wo, 0.85, Vec2::new(0.3, 0.3), TransportMode::Radiance).expect("mirror");
+    assert!(s.delta && (s.pdf_w - 0.3).abs() < 1e-7 && s.weight == Vec3::new(0.9, 0.8, 0.7));
+    let s = b.sample(wo, 0.2, Vec2::new(0.3, 0.3), TransportMode::Radiance).expect("diffuse");
+    assert!(!s.delta && (s.pdf_w - 0.7 * s.wi_local.z / std::f32::consts::PI).abs() < 1e-6);
+    // Glass inside a blend: the Fresnel choice happens with the rescaled u_lobe.
+    let g = blend(0.5, diffuse(0.5), Bsdf::Dielectric { eta: 1.5 });
+    let (r, ..) = fresnel_dielectric(1.0, 1.5);
+    let s = g
+        .sample(Vec3::Z, 0.5 + 0.5 * 0.5 * r, Vec2::ZERO, TransportMode::Radiance)
+        .expect("reflection");
+    assert!(s.delta && s.wi_local.z > 0.0 && (s.pdf_w - 0.5 * r).abs() < 1e-7);
+    let s = g.sample(Vec3::Z, 0.99, Vec2::ZERO, TransportMode::Radiance).expect("refraction");
+    assert!(s.delta && s.wi_local.z < 0.0 && (s.pdf_w - 0.5 * (1.0 - r)).abs() < 1e-6);
+}
+
+#[test]
+fn delta_flags() {
+    assert!(!diffuse(1.0).has_delta() && diffuse(1.0).has_non_delta());
+    assert!(!rough(0.1, None).has_delta() && rough(0.1, None).has_non_delta());
+    let dm = blend(0.3, diffuse(1.0), mirror());
+    assert!(dm.has_delta() && dm.has_non_delta());
+    // A component with zero weight is never sampled.
+    assert!(!blend(0.0, diffuse(1.0), mirror()).has_delta());
+    assert!(!blend(1.0, diffuse(1.0), mirror()).has_non_delta());
+    assert!(blend(1.0, diffuse(1.0), mirror()).has_delta());
+}
+
+#[test]
+fn never_nan_at_grazing_or_degenerate_input() {
+    let mut zoo = non_delta_zoo();
+    zoo.extend([
+        mirror(),
+        Bsdf::Conductor {
+            specular_reflectance: Vec3::ONE,
+            eta_k: Some((AU_ETA, AU_K)),
+        },
+        Bsdf::Dielectric { eta: 1.5 },
+        Bsdf::Dielectric { eta: 1.0 },
+        Bsdf::Dielectric { eta: 1.0 / 1.33 },
+        rough(0.0, None),
+        rough(1e-7, Some((AU_ETA, AU_K))),
+        blend(0.0, diffuse(1.0), rough(0.5, None)),
+        blend(1.0, diffuse(1.0), Bsdf::Dielectric { eta: 1.5 }),
+    ]);
+    let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
+    let mut wos = Vec::new();
+    for z in tiny {
+        for sign in [1.0f32, -1.0] {
+            wos.push(Vec3::new((1.0 - z * z).sqrt(), 0.0, sign * z));
+        }
+    }
+    wos.extend([Vec3::Z, -Vec3::Z, Vec3::X, Vec3::Y]);
+    let us = [
+        Vec2::ZERO,
+        Vec2::new(0.5, 0.5),
+        Vec2::splat(ONE_MINUS_EPSILON),
+        Vec2::new(0.0, ONE_MINUS_EPSILON),
+        Vec2::new(0.25, 0.0),
+    ];
+    for bsdf in &zoo {
+        for &wo in &wos {
+            for &wi in &wos {
+                let (f, p) = (bsdf.f(wo, wi, TransportMode::Radiance), bsdf.pdf_w(wo, wi));
+                assert!(
+                    f.is_finite() && f.min_element() >= 0.0 && p.is_finite() && p >= 0.0,
+                    "{bsdf:?} {wo} {wi}: {f} {p}"
+                );
+            }
+            for u_lobe in [0.0, 0.5, ONE_MINUS_EPSILON] {
+                for &u in &us {
+                    for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                        let s = bsdf.sample(wo, u_lobe, u, mode);
+                        if wo.z == 0.0 {
+                            assert!(s.is_none(), "{bsdf:?}: tangent wo must not scatter");
+                        }
+                        if let Some(s) = s {
+                            assert!(
+                                s.wi_local.is_finite() && s.weight.is_finite() && s.pdf_w.is_finite() && s.pdf_w > 0.0,
+                                "{bsdf:?} {wo}: {s:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
