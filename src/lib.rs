@@ -10,6 +10,8 @@
 
 pub mod accel;
 pub mod error;
+pub mod light;
 pub mod math;
 pub mod mesh;
 pub mod sampler;
+pub mod sampling;
