@@ -13,6 +13,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod error;
 pub mod film;
+pub mod light;
 pub mod math;
 pub mod mesh;
 pub mod report;

@@ -1,0 +1,198 @@
+//! Area lights: a set of emissive triangles with one radiance, emitting on one side only, the side of the
+//! geometric normal `(p1 − p0) × (p2 − p0)` (Mitsuba's `area` emitter). Triangles are chosen ∝ area, then a
+//! point uniformly on the triangle, so the density over the light's surface is `pdf_a = 1/A`.
+
+use super::warp_local::{square_to_cosine_hemisphere, square_to_uniform_triangle};
+use super::{luminance, EmissionSample, LightSample};
+use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Vec2, Vec3};
+use crate::sampling::distribution::Distribution1D;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+#[derive(Clone, Debug)]
+struct LightTriangle {
+    prim: u32,
+    p: [Vec3; 3],
+    /// Unit geometric normal (zero for a degenerate triangle, which is never sampled).
+    n: Vec3,
+}
+
+/// One emitting shape (all its triangles share the radiance).
+#[derive(Clone, Debug)]
+pub struct AreaLight {
+    radiance: Vec3,
+    triangles: Vec<LightTriangle>,
+    /// Triangle selection ∝ area; `None` if the total area is 0.
+    distribution: Option<Distribution1D>,
+    area: f32,
+}
+
+/// Solid-angle density at `p_ref` of a point `p_light` (unit normal `n_light`) sampled with area density
+/// `pdf_a`: `pdf_w = pdf_a · d² / cos θ_l` (pbrt-v4 eq. 4.11 / Veach 1997 eq. 8.10). 0 if `p_ref` is behind
+/// the emitting side or coincides with `p_light`.
+#[must_use]
+fn pdf_w_from_area(pdf_a: f32, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+    let d = p_ref - p_light;
+    let dist2 = d.length_squared();
+    if !(dist2 > 0.0 && dist2.is_finite()) {
+        return 0.0;
+    }
+    let cos_l = n_light.dot(d) / dist2.sqrt();
+    if cos_l.is_nan() || cos_l <= 0.0 {
+        return 0.0;
+    }
+    pdf_a * dist2 / cos_l
+}
+
+impl AreaLight {
+    /// An area light of `radiance` over `triangles` (global primitive index, vertices). Degenerate
+    /// triangles are kept (so their primitive maps to this light) but never sampled.
+    #[must_use]
+    pub fn new(radiance: Vec3, triangles: Vec<(u32, [Vec3; 3])>) -> Self {
+        let mut areas = Vec::with_capacity(triangles.len());
+        let triangles: Vec<LightTriangle> = triangles
+            .into_iter()
+            .map(|(prim, p)| {
+                let c = (p[1] - p[0]).cross(p[2] - p[0]);
+                let len = c.length();
+                let ok = len > 0.0 && len.is_finite();
+                areas.push(if ok { 0.5 * len } else { 0.0 });
+                LightTriangle {
+                    prim,
+                    p,
+                    n: if ok { c / len } else { Vec3::ZERO },
+                }
+            })
+            .collect();
+        let area = areas.iter().map(|&a| f64::from(a)).sum::<f64>() as f32;
+        let distribution = Distribution1D::new(&areas);
+        Self {
+            radiance,
+            triangles,
+            distribution,
+            area,
+        }
+    }
+
+    /// Total area A of the emitting triangles.
+    #[must_use]
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+
+    /// Emitted radiance (on the front side).
+    #[must_use]
+    pub fn radiance(&self) -> Vec3 {
+        self.radiance
+    }
+
+    /// Global primitive indices of its triangles.
+    pub fn prims(&self) -> impl Iterator<Item = u32> + '_ {
+        self.triangles.iter().map(|t| t.prim)
+    }
+
+    /// Power Φ = π·A·Y(L), one-sided (method.md §2).
+    #[must_use]
+    pub fn power(&self) -> f32 {
+        PI * self.area * luminance(self.radiance)
+    }
+
+    /// Radiance leaving the light at a point with geometric normal `ng` toward `w_world` (0 on the back side).
+    #[must_use]
+    pub fn le(&self, ng: Vec3, w_world: Vec3) -> Vec3 {
+        if ng.dot(w_world) > 0.0 {
+            self.radiance
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Density of the sampled point per unit area: `1/A` (triangle ∝ area, then uniform on it).
+    #[must_use]
+    fn pdf_a(&self) -> f32 {
+        if self.distribution.is_some() {
+            1.0 / self.area
+        } else {
+            0.0
+        }
+    }
+
+    /// A uniform point on triangle `i`: (triangle, point, barycentrics).
+    fn point_on(&self, i: usize, u_pos: Vec2) -> (&LightTriangle, Vec3, [f32; 3]) {
+        let t = &self.triangles[i];
+        let (b1, b2) = square_to_uniform_triangle(u_pos);
+        let b = [(1.0 - b1 - b2).max(0.0), b1, b2];
+        (t, b[0] * t.p[0] + b[1] * t.p[1] + b[2] * t.p[2], b)
+    }
+
+    /// NEE: a point on the light seen from `p_ref`. `u.x` chooses the triangle and, remapped, together with
+    /// `u.y` the point on it. `None` if `p_ref` is behind the sampled point's emitting side or on it.
+    #[must_use]
+    pub fn sample_li(&self, p_ref: Vec3, u: Vec2) -> Option<LightSample> {
+        let (i, _, u_rest) = self.distribution.as_ref()?.sample_discrete(u.x);
+        let (t, p_light, _) = self.point_on(i, Vec2::new(u_rest, u.y));
+        let pdf_w = self.pdf_li(p_ref, p_light, t.n);
+        if !(pdf_w > 0.0 && pdf_w.is_finite()) {
+            return None;
+        }
+        let d = p_light - p_ref;
+        let dist = d.length();
+        Some(LightSample {
+            wi_world: d / dist,
+            dist,
+            li: self.radiance,
+            pdf_w,
+            p_light,
+            n_light: t.n,
+        })
+    }
+
+    /// Solid-angle density with which [`AreaLight::sample_li`] from `p_ref` produces the point `p_light`
+    /// of unit geometric normal `n_light` (0 from behind).
+    #[must_use]
+    pub fn pdf_li(&self, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+        pdf_w_from_area(self.pdf_a(), p_ref, p_light, n_light)
+    }
+
+    /// Photon emission (method.md §2): triangle ∝ area (`u_tri`), point uniform on it (`u_pos`), direction
+    /// cosine-weighted about the normal (`u_dir`). `None` if the light has no area or the direction is
+    /// tangent.
+    #[must_use]
+    pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, u_tri: f32) -> Option<EmissionSample> {
+        let (i, _, _) = self.distribution.as_ref()?.sample_discrete(u_tri);
+        let (t, p, b) = self.point_on(i, u_pos);
+        let local = square_to_cosine_hemisphere(u_dir);
+        if local.z.is_nan() || local.z <= 0.0 {
+            return None;
+        }
+        let dir = Frame::from_normal(t.n).to_world(local).normalize();
+        let origin = offset_ray_origin(p, barycentric_point_error(b, t.p), t.n, dir);
+        Some(EmissionSample {
+            origin,
+            n: t.n,
+            dir,
+            le: self.radiance,
+            pdf_a: self.pdf_a(),
+            pdf_w_dir: local.z * FRAC_1_PI,
+        })
+    }
+}
+
+#[cfg(test)]
+impl AreaLight {
+    /// Its triangles as given to `new` (tests).
+    pub(super) fn triangle_list(&self) -> Vec<(u32, [Vec3; 3])> {
+        self.triangles.iter().map(|t| (t.prim, t.p)).collect()
+    }
+
+    /// Whether `p` lies on triangle `prim` of this light (tests; tolerance 1e-4 in barycentrics and height).
+    pub(super) fn contains(&self, prim: u32, p: Vec3) -> bool {
+        self.triangles.iter().filter(|t| t.prim == prim).any(|t| {
+            let (e1, e2, q) = (t.p[1] - t.p[0], t.p[2] - t.p[0], p - t.p[0]);
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let det = d11 * d22 - d12 * d12;
+            let b1 = (d22 * q.dot(e1) - d12 * q.dot(e2)) / det;
+            let b2 = (d11 * q.dot(e2) - d12 * q.dot(e1)) / det;
+            b1 >= -1e-4 && b2 >= -1e-4 && b1 + b2 <= 1.0 + 1e-4 && t.n.dot(q).abs() < 1e-4
+        })
+    }
+}

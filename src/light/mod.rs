@@ -1,0 +1,212 @@
+//! Light sources and their sampling: emissive triangles ([`AreaLight`], Mitsuba's `area` emitter), the
+//! equirectangular environment map ([`EnvMap`], Mitsuba's `envmap`) and the constant environment
+//! ([`Light::Constant`], Mitsuba's `constant`); [`LightSet`] holds them all and chooses one ∝ power for
+//! next-event estimation (NEE) and for photon emission.
+//!
+//! Measures are in the names: `pdf_w` per steradian, `pdf_a` per unit area. Every `pdf_li_*` is computed by
+//! the same function the matching `sample_li` uses, so the two always agree (MIS needs this).
+//!
+//! Power (method.md §2) is a luminance: `Φ = π·A·Y(L)` for a one-sided diffuse area light, and
+//! `Φ = π·R²·∫Y(Le) dω` for the environment map and the constant light, R = the scene's bounding-sphere radius.
+
+pub mod area;
+pub mod env;
+pub mod set;
+mod warp_local;
+
+#[cfg(test)]
+mod test_util;
+#[cfg(test)]
+mod tests_area;
+#[cfg(test)]
+mod tests_env;
+
+pub use area::AreaLight;
+pub use env::EnvMap;
+pub use set::LightSet;
+
+use crate::math::{Frame, Vec2, Vec3};
+use std::f32::consts::PI;
+use std::path::PathBuf;
+use warp_local::{square_to_uniform_disk_concentric, square_to_uniform_sphere, uniform_sphere_pdf_w};
+
+/// Luminance Y of a linear RGB colour with Rec. 709 (sRGB) primaries: `0.2126 R + 0.7152 G + 0.0722 B`.
+#[must_use]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// A direction toward a light chosen by `sample_li`, with what NEE needs to use it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Unit direction from the reference point toward the light.
+    pub wi_world: Vec3,
+    /// Distance to `p_light`; `f32::INFINITY` for the environment and constant lights (then trace the shadow
+    /// ray along `wi_world` without a bound).
+    pub dist: f32,
+    /// Radiance arriving at the reference point from the light along `-wi_world` (unoccluded).
+    pub li: Vec3,
+    /// Solid-angle density of this sample: given this light for [`Light::sample_li`], including the light's
+    /// selection probability for [`LightSet::sample_li`].
+    pub pdf_w: f32,
+    /// Sampled point on the light; for infinite lights `p_ref + wi_world` (a point along the direction,
+    /// meaningful only together with `dist = ∞`).
+    pub p_light: Vec3,
+    /// Unit geometric normal at `p_light` (the emitting side); `-wi_world` for infinite lights.
+    pub n_light: Vec3,
+}
+
+/// A photon's starting ray chosen by `sample_le` (method.md §2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionSample {
+    /// Ray origin. For area lights the sampled point already moved off the surface by
+    /// [`crate::math::offset_ray_origin`]; for infinite lights a point on a disk outside the scene.
+    pub origin: Vec3,
+    /// Unit normal of the emitting surface (area) or of the disk (infinite lights: `n = dir`, so cos θ′ = 1).
+    pub n: Vec3,
+    /// Unit direction the photon travels.
+    pub dir: Vec3,
+    /// Emitted radiance along `dir`.
+    pub le: Vec3,
+    /// Density of `origin` per unit area: `1/A` (area light) or `1/(π R²)` (disk of infinite lights).
+    pub pdf_a: f32,
+    /// Density of `dir` per steradian: `cos θ′/π` (area light, cosine-weighted) or the light's
+    /// importance-sampling pdf (infinite lights).
+    pub pdf_w_dir: f32,
+}
+
+/// Errors from building a light (loading an environment map). Each names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum LightError {
+    #[error("{}: cannot read: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{}: cannot decode the environment map: {message}", path.display())]
+    Decode { path: PathBuf, message: String },
+    #[error("{}: unsupported environment map format (expected .exr or .hdr)", path.display())]
+    UnsupportedFormat { path: PathBuf },
+    #[error("{}: pixel (x {x}, y {y}) has a negative or non-finite value ({r}, {g}, {b})", path.display())]
+    BadTexel {
+        path: PathBuf,
+        x: usize,
+        y: usize,
+        r: f32,
+        g: f32,
+        b: f32,
+    },
+    #[error("{}: {message}", path.display())]
+    Invalid { path: PathBuf, message: String },
+}
+
+/// One light source.
+#[derive(Clone, Debug)]
+pub enum Light {
+    Area(AreaLight),
+    Env(EnvMap),
+    /// Uniform radiance from every direction at infinity (Mitsuba's `constant` emitter).
+    Constant {
+        radiance: Vec3,
+    },
+}
+
+impl Light {
+    /// Samples a direction toward this light from `p_ref`; `pdf_w` is given this light (no selection).
+    /// `None` when the sample carries nothing (back side of an area light, zero-pdf direction, ...).
+    #[must_use]
+    pub fn sample_li(&self, p_ref: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Light::Area(a) => a.sample_li(p_ref, u),
+            Light::Env(e) => e.sample_li(p_ref, u),
+            Light::Constant { radiance } => {
+                let wi = square_to_uniform_sphere(u);
+                infinite_light_sample(p_ref, wi, *radiance, uniform_sphere_pdf_w(wi))
+            }
+        }
+    }
+
+    /// `true` for lights at infinity (environment map, constant), seen by escaping rays.
+    #[must_use]
+    pub fn is_infinite(&self) -> bool {
+        !matches!(self, Light::Area(_))
+    }
+
+    /// Radiance this light sends along an escaping ray with direction `dir_world` (0 for area lights).
+    #[must_use]
+    pub fn le_escaped(&self, dir_world: Vec3) -> Vec3 {
+        match self {
+            Light::Area(_) => Vec3::ZERO,
+            Light::Env(e) => e.eval(dir_world),
+            Light::Constant { radiance } => *radiance,
+        }
+    }
+
+    /// Solid-angle pdf (given this light) with which `sample_li` produces the escaping direction `dir_world`
+    /// (0 for area lights).
+    #[must_use]
+    pub fn pdf_li_escaped(&self, dir_world: Vec3) -> f32 {
+        match self {
+            Light::Area(_) => 0.0,
+            Light::Env(e) => e.pdf_li(dir_world),
+            Light::Constant { .. } => uniform_sphere_pdf_w(dir_world),
+        }
+    }
+
+    /// Power Φ as a luminance (method.md §2); `scene_radius` is R of the scene's bounding sphere.
+    #[must_use]
+    pub fn power(&self, scene_radius: f32) -> f32 {
+        match self {
+            Light::Area(a) => a.power(),
+            Light::Env(e) => e.power(scene_radius),
+            Light::Constant { radiance } => PI * scene_radius * scene_radius * 4.0 * PI * luminance(*radiance),
+        }
+    }
+
+    /// Samples a photon's starting ray (method.md §2). The arguments are those of the light's own
+    /// `sample_le`, in order: area `(u_pos, u_dir, u_tri)`, environment `(u_dir, u_disk)`, constant
+    /// `(u_dir, u_disk)` (uniform direction); infinite lights use the scene's bounding sphere.
+    #[must_use]
+    pub fn sample_le(&self, u_a: Vec2, u_b: Vec2, u_c: f32, scene_center: Vec3, scene_radius: f32) -> Option<EmissionSample> {
+        match self {
+            Light::Area(a) => a.sample_le(u_a, u_b, u_c),
+            Light::Env(e) => e.sample_le(u_a, u_b, scene_center, scene_radius),
+            Light::Constant { radiance } => {
+                let omega = square_to_uniform_sphere(u_a);
+                disk_emission(omega, *radiance, uniform_sphere_pdf_w(omega), u_b, scene_center, scene_radius)
+            }
+        }
+    }
+}
+
+/// The `LightSample` of an infinite light in direction `wi` (None if it carries nothing).
+fn infinite_light_sample(p_ref: Vec3, wi: Vec3, li: Vec3, pdf_w: f32) -> Option<LightSample> {
+    if !(pdf_w > 0.0 && pdf_w.is_finite()) || li == Vec3::ZERO {
+        return None;
+    }
+    Some(LightSample {
+        wi_world: wi,
+        dist: f32::INFINITY,
+        li,
+        pdf_w,
+        p_light: p_ref + wi,
+        n_light: -wi,
+    })
+}
+
+/// Emission from an infinite light arriving from direction `omega` (unit, toward the light): the photon
+/// starts on a disk of radius R perpendicular to `omega`, centred at `center + R·omega` (outside the
+/// bounding sphere), and travels along `-omega` (pbrt-v4 `ImageInfiniteLight::SampleLe`).
+fn disk_emission(omega: Vec3, le: Vec3, pdf_w_dir: f32, u_disk: Vec2, center: Vec3, radius: f32) -> Option<EmissionSample> {
+    if !(radius > 0.0 && radius.is_finite() && pdf_w_dir > 0.0 && pdf_w_dir.is_finite()) || le == Vec3::ZERO {
+        return None;
+    }
+    let frame = Frame::from_normal(omega);
+    let d = square_to_uniform_disk_concentric(u_disk);
+    let origin = center + radius * (omega + d.x * frame.s + d.y * frame.t);
+    Some(EmissionSample {
+        origin,
+        n: -omega,
+        dir: -omega,
+        le,
+        pdf_a: 1.0 / (PI * radius * radius),
+        pdf_w_dir,
+    })
+}
