@@ -12,4 +12,5 @@ pub mod accel;
 pub mod error;
 pub mod math;
 pub mod mesh;
+pub mod photon;
 pub mod sampler;
