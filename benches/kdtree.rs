@@ -62,7 +62,10 @@ fn queries(photons: &[Photon]) -> Vec<[f32; 3]> {
 
 /// The k-th smallest squared distance by brute force (f64, compared with a relative tolerance).
 fn brute_kth(positions: &[[f32; 3]], q: [f32; 3]) -> f32 {
-    let mut d: Vec<f32> = positions.iter().map(|p| (Vec3::from_array(*p) - Vec3::from_array(q)).length_squared()).collect();
+    let mut d: Vec<f32> = positions
+        .iter()
+        .map(|p| (Vec3::from_array(*p) - Vec3::from_array(q)).length_squared())
+        .collect();
     let (_, kth, _) = d.select_nth_unstable_by(K - 1, f32::total_cmp);
     *kth
 }
@@ -116,14 +119,20 @@ fn bench_queries(pool: &rayon::ThreadPool, qs: &[[f32; 3]], variants: &[Query<'_
     let mut r2s = vec![Vec::new(); variants.len()];
     for _ in 0..3 {
         for (i, f) in variants.iter().enumerate() {
-            let (w, c, r2) = measure(|| pool.install(|| qs.par_iter().map_init(KnnResult::default, |out, q| f(q, out)).collect::<Vec<f32>>()));
+            let (w, c, r2) =
+                measure(|| pool.install(|| qs.par_iter().map_init(KnnResult::default, |out, q| f(q, out)).collect::<Vec<f32>>()));
             walls[i].push(w);
             cpus[i].push(c / THREADS as f64);
             r2s[i] = black_box(r2);
         }
     }
     let n = qs.len() as f64;
-    walls.into_iter().zip(cpus).zip(r2s).map(|((w, c), r2)| (n / median(w), n / median(c), r2)).collect()
+    walls
+        .into_iter()
+        .zip(cpus)
+        .zip(r2s)
+        .map(|((w, c), r2)| (n / median(w), n / median(c), r2))
+        .collect()
 }
 
 fn main() {
@@ -145,7 +154,7 @@ fn main() {
         sizes = vec![100_000, 1_000_000, 10_000_000];
     }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(THREADS).build().expect("thread pool");
-    println!("k = {K}, {N_QUERIES} queries on {THREADS} threads, leaf size (ours) = {leaf}; medians of 3 runs");
+    println!("k = {K}, {N_QUERIES} queries on {THREADS} threads, leaf size (ours) = {leaf}; medians of 3 runs (kiddo mutable build at >= 1e7: 1 run)");
     println!("build: wall ms (ours on {THREADS} threads, kiddo single-threaded) | queries: M/s by wall time [by CPU time per thread]");
     println!(
         "{:>9} | {:>8} {:>8} {:>8} {:>5} | {:>13} {:>13} {:>13} {:>13} {:>11} | {:>6}",
@@ -173,7 +182,13 @@ fn main() {
         });
         if ours_only {
             let r = bench_queries(&pool, &qs, &[ours]);
-            println!("{n:>9} | {:>8.1} | {:>6.3} [{:>6.3}] | {:>6.1} MB", ours_build * 1e3, r[0].0 * 1e-6, r[0].1 * 1e-6, tree.memory_bytes() as f64 / 1e6);
+            println!(
+                "{n:>9} | {:>8.1} | {:>6.3} [{:>6.3}] | {:>6.1} MB",
+                ours_build * 1e3,
+                r[0].0 * 1e-6,
+                r[0].1 * 1e-6,
+                tree.memory_bytes() as f64 / 1e6
+            );
             continue;
         }
         let kiddo_runs = if n >= 10_000_000 { 1 } else { 3 };
@@ -186,7 +201,12 @@ fn main() {
             ours,
             Box::new(|q, _| kiddo_tree.nearest_n::<SquaredEuclidean>(q, K).last().map_or(0.0, |nn| nn.distance)),
             Box::new(|q, _| kiddo_im.nearest_n::<SquaredEuclidean>(q, k_nz).last().map_or(0.0, |nn| nn.distance)),
-            Box::new(|q, _| kiddo_im.nearest_n_within::<SquaredEuclidean>(q, f32::INFINITY, k_nz, false).iter().fold(0.0f32, |m, nn| m.max(nn.distance))),
+            Box::new(|q, _| {
+                kiddo_im
+                    .nearest_n_within::<SquaredEuclidean>(q, f32::INFINITY, k_nz, false)
+                    .iter()
+                    .fold(0.0f32, |m, nn| m.max(nn.distance))
+            }),
         ];
         let r = bench_queries(&pool, &qs, &variants);
 

@@ -25,7 +25,12 @@ fn dist2(a: Vec3, b: Vec3) -> f32 {
 /// Brute force: sorted squared distances of the k nearest accepted photons within `max_radius`, and r².
 fn brute(photons: &[Photon], q: Vec3, k: usize, max_radius: f32, accept: &dyn Fn(&Photon) -> bool) -> (Vec<f32>, f32) {
     let max_r2 = max_radius * max_radius;
-    let mut d: Vec<f32> = photons.iter().filter(|p| accept(p)).map(|p| dist2(p.position(), q)).filter(|&d2| d2 <= max_r2).collect();
+    let mut d: Vec<f32> = photons
+        .iter()
+        .filter(|p| accept(p))
+        .map(|p| dist2(p.position(), q))
+        .filter(|&d2| d2 <= max_r2)
+        .collect();
     d.sort_by(f32::total_cmp);
     d.truncate(k);
     let r2 = if k == 0 {
@@ -61,7 +66,10 @@ fn check(tree: &KdTree, photons: &[Photon], q: Vec3, k: usize, max_radius: f32, 
 /// leaf sizes, with and without a hemisphere acceptance test.
 fn compare_on(photons: &[Photon], seed: u64, n_queries: usize) {
     let bounds = photons.iter().fold(caustica::math::Aabb::EMPTY, |b, p| b.grow(p.position()));
-    let (lo, ext) = (bounds.min - 0.1 * bounds.extent() - Vec3::splat(0.01), 1.2 * bounds.extent() + Vec3::splat(0.02));
+    let (lo, ext) = (
+        bounds.min - 0.1 * bounds.extent() - Vec3::splat(0.01),
+        1.2 * bounds.extent() + Vec3::splat(0.02),
+    );
     let normal = Vec3::new(0.3, -0.2, 0.9).normalize();
     let hemisphere = move |p: &Photon| p.wi_world().dot(normal) > 0.0;
     let all = |_: &Photon| true;
@@ -91,7 +99,9 @@ fn compare_on(photons: &[Photon], seed: u64, n_queries: usize) {
 #[test]
 fn uniform_points_match_brute_force() {
     let mut s = Sampler::for_key(1, 0, 0);
-    let photons: Vec<Photon> = (0..4000).map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), &mut s)).collect();
+    let photons: Vec<Photon> = (0..4000)
+        .map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), &mut s))
+        .collect();
     compare_on(&photons, 11, 120);
 }
 
@@ -101,7 +111,11 @@ fn planar_and_clustered_points_match_brute_force() {
     let mut s = Sampler::for_key(2, 0, 0);
     let photons: Vec<Photon> = (0..4000)
         .map(|i| {
-            let (x, y) = if i % 2 == 0 { (s.next_1d() * 4.0 - 2.0, s.next_1d() * 4.0 - 2.0) } else { (0.3 + 1e-3 * s.next_1d(), -0.2 + 1e-3 * s.next_1d()) };
+            let (x, y) = if i % 2 == 0 {
+                (s.next_1d() * 4.0 - 2.0, s.next_1d() * 4.0 - 2.0)
+            } else {
+                (0.3 + 1e-3 * s.next_1d(), -0.2 + 1e-3 * s.next_1d())
+            };
             photon_at(Vec3::new(x, y, 0.0), &mut s)
         })
         .collect();
@@ -114,7 +128,11 @@ fn duplicates_and_ties_match_brute_force() {
     let mut s = Sampler::for_key(3, 0, 0);
     let photons: Vec<Photon> = (0..3000)
         .map(|_| {
-            let p = Vec3::new((s.next_1d() * 5.0).floor(), (s.next_1d() * 5.0).floor(), (s.next_1d() * 3.0).floor());
+            let p = Vec3::new(
+                (s.next_1d() * 5.0).floor(),
+                (s.next_1d() * 5.0).floor(),
+                (s.next_1d() * 3.0).floor(),
+            );
             photon_at(p, &mut s)
         })
         .collect();
@@ -122,7 +140,12 @@ fn duplicates_and_ties_match_brute_force() {
     // Queries exactly on grid points, where ties are everywhere.
     let tree = KdTree::build(photons.clone()).unwrap();
     let mut out = KnnResult::default();
-    for q in [Vec3::ZERO, Vec3::new(2.0, 2.0, 1.0), Vec3::new(2.5, 2.0, 1.0), Vec3::new(4.0, 4.0, 2.0)] {
+    for q in [
+        Vec3::ZERO,
+        Vec3::new(2.0, 2.0, 1.0),
+        Vec3::new(2.5, 2.0, 1.0),
+        Vec3::new(4.0, 4.0, 2.0),
+    ] {
         for k in [1, 10, 100, 129, 500] {
             check(&tree, &photons, q, k, f32::INFINITY, &|_| true, &mut out);
         }
@@ -160,7 +183,9 @@ fn empty_map_k_zero_and_k_larger_than_n() {
     assert_eq!(out.r2(), f32::INFINITY);
 
     let mut s = Sampler::for_key(5, 0, 0);
-    let photons: Vec<Photon> = (0..37).map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), &mut s)).collect();
+    let photons: Vec<Photon> = (0..37)
+        .map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), &mut s))
+        .collect();
     let tree = KdTree::build(photons.clone()).unwrap();
     tree.knn(Vec3::splat(0.5), 0, f32::INFINITY, |_| true, &mut out);
     assert!(out.is_empty());
@@ -173,7 +198,15 @@ fn empty_map_k_zero_and_k_larger_than_n() {
     tree.knn(Vec3::splat(0.5), 5, 1.0, |_| false, &mut out);
     assert_eq!((out.len(), out.r2()), (0, 1.0));
     check(&tree, &photons, Vec3::splat(0.5), 37, f32::INFINITY, &|_| true, &mut out);
-    check(&tree, &photons, Vec3::splat(0.5), 38, 0.4, &|p: &Photon| p.power().x > 0.5, &mut out);
+    check(
+        &tree,
+        &photons,
+        Vec3::splat(0.5),
+        38,
+        0.4,
+        &|p: &Photon| p.power().x > 0.5,
+        &mut out,
+    );
     // A single photon.
     let one = KdTree::build(photons[..1].to_vec()).unwrap();
     check(&one, &photons[..1], Vec3::ZERO, 3, f32::INFINITY, &|_| true, &mut out);

@@ -44,7 +44,7 @@ fn sign_not_zero(v: f32) -> f32 {
 #[must_use]
 pub fn oct_encode(v: Vec3) -> Vec2 {
     let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    if !(l1 > 0.0) || !l1.is_finite() {
+    if l1.is_nan() || l1 <= 0.0 || l1.is_infinite() {
         // Zero, NaN or infinite input: a bug upstream; encode +z so the record stays decodable.
         debug_assert!(false, "oct_encode of a non-finite or zero vector {v:?}");
         return Vec2::ZERO;
@@ -61,7 +61,11 @@ pub fn oct_encode(v: Vec3) -> Vec2 {
 #[must_use]
 pub fn oct_decode(e: Vec2) -> Vec3 {
     let z = 1.0 - e.x.abs() - e.y.abs();
-    let (x, y) = if z < 0.0 { ((1.0 - e.y.abs()) * sign_not_zero(e.x), (1.0 - e.x.abs()) * sign_not_zero(e.y)) } else { (e.x, e.y) };
+    let (x, y) = if z < 0.0 {
+        ((1.0 - e.y.abs()) * sign_not_zero(e.x), (1.0 - e.x.abs()) * sign_not_zero(e.y))
+    } else {
+        (e.x, e.y)
+    };
     Vec3::new(x, y, z).normalize()
 }
 
@@ -83,7 +87,10 @@ fn encode_direction(v: Vec3) -> [u16; 2] {
     // Compare squared chord lengths, not dot products: cos θ = 1 − 5·10⁻⁹ at θ = 10⁻⁴ is 1 in f32.
     let mut best_err = f32::INFINITY;
     for (cx, cy) in [(fx, fy), (fx + 1.0, fy), (fx, fy + 1.0), (fx + 1.0, fy + 1.0)] {
-        let q = [(cx.clamp(-OCT_SCALE, OCT_SCALE) + OCT_SCALE) as u16, (cy.clamp(-OCT_SCALE, OCT_SCALE) + OCT_SCALE) as u16];
+        let q = [
+            (cx.clamp(-OCT_SCALE, OCT_SCALE) + OCT_SCALE) as u16,
+            (cy.clamp(-OCT_SCALE, OCT_SCALE) + OCT_SCALE) as u16,
+        ];
         let err = (decode_direction(q) - v).length_squared();
         if err < best_err {
             best_err = err;
@@ -105,7 +112,12 @@ impl Photon {
     pub fn new(position: Vec3, wi_world: Vec3, power: Vec3, le: f32) -> Self {
         debug_assert!((wi_world.length_squared() - 1.0).abs() < 1e-3, "wi_world not unit: {wi_world:?}");
         debug_assert!(power.is_finite() && le.is_finite(), "non-finite photon power {power:?} or Le {le}");
-        Self { position: position.to_array(), wi_oct: encode_direction(wi_world), power: power.to_array(), le }
+        Self {
+            position: position.to_array(),
+            wi_oct: encode_direction(wi_world),
+            power: power.to_array(),
+            le,
+        }
     }
 
     /// Where the photon was stored.
@@ -179,7 +191,17 @@ mod tests {
             check(uniform_sphere(s.next_2d()));
         }
         // The folds and poles: ±axes, the octahedron's edges and the z = 0 seam.
-        for w in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, -1e-7), Vec3::new(1.0, -1.0, -1.0)] {
+        for w in [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, -1e-7),
+            Vec3::new(1.0, -1.0, -1.0),
+        ] {
             check(w.normalize());
         }
         assert!(max_err < 5e-5, "max angular error {max_err} rad");
