@@ -16,6 +16,7 @@ pub mod film;
 pub mod light;
 pub mod math;
 pub mod mesh;
+pub mod photon;
 pub mod report;
 pub mod sampler;
 pub mod sampling;

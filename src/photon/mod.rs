@@ -1,0 +1,8 @@
+//! Caustic photons (method.md §2, §3): the compact photon record and the kd-tree with its k-NN query.
+//! Emission and delta-chain tracing live beside them.
+
+pub mod kdtree;
+pub mod record;
+
+pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor};
+pub use record::Photon;
