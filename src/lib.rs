@@ -11,6 +11,7 @@
 pub mod accel;
 pub mod bench;
 pub mod bsdf;
+pub mod camera;
 pub mod error;
 pub mod film;
 pub mod light;
@@ -20,3 +21,4 @@ pub mod photon;
 pub mod report;
 pub mod sampler;
 pub mod sampling;
+pub mod scene;

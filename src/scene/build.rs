@@ -1,0 +1,510 @@
+//! From the parsed file to a [`Scene`], in three phases so that a missing file is only reported once
+//! everything else in the file has been checked:
+//!
+//! 1. **plan** — every value is range-checked, transforms composed, materials resolved; no file is touched;
+//! 2. **files** — every referenced file (meshes, environment maps) must exist;
+//! 3. **load** — meshes are loaded or generated, placed in world space and flattened into one triangle
+//!    soup (per-triangle material and flat flag); each emitting shape becomes one [`AreaLight`].
+//!
+//! Placement (pbrt-v4 §3.10, Mitsuba's `Mesh`): points by `to_world`, normals by its inverse transpose. A
+//! transform with negative determinant (a mirror) reverses the geometric normal `(p1−p0)×(p2−p0)` relative to
+//! the transformed shading normals, so the winding of such shapes is swapped to keep the two on the same
+//! side (the geometric normal is what one-sided emitters emit along). `flip_normals` negates the normals and
+//! swaps the winding too.
+
+use std::path::{Path, PathBuf};
+
+use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorType, ShapeDesc, ShapeType};
+use super::error::{ErrorContext, SceneError};
+use super::material::Materials;
+use super::settings::{CausticsSettings, IntegratorSettings};
+use super::spans::{join_index, join_key, SpanIndex};
+use super::transform::{invertible_linear_part, to_world_matrix};
+use super::Scene;
+use crate::bsdf::Bsdf;
+use crate::camera::{Camera, CameraError};
+use crate::light::{AreaLight, EnvMap, Light, LightSet};
+use crate::math::{Mat3, Mat4, Vec3};
+use crate::mesh::{shapes, TriangleMesh};
+
+/// Default sphere tessellation: 128 rings × 256 segments = 65,024 triangles. The chord error is at most
+/// radius·(1 − cos(π/128)) = 3.0e-4·radius (a conservative bound on the distance between the triangles and
+/// the true sphere); shading uses the exact per-vertex normals interpolated, so reflections stay smooth.
+pub const SPHERE_RINGS: u32 = 128;
+pub const SPHERE_SEGMENTS: u32 = 256;
+/// Upper limit on the triangles of one tessellated sphere (2·rings·segments).
+const SPHERE_MAX_TRIANGLES: u64 = 1 << 26;
+
+/// Where a shape's triangles come from (object space).
+enum Geometry {
+    File {
+        path: PathBuf,
+    },
+    Rectangle,
+    Cube,
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        rings: u32,
+        segments: u32,
+    },
+}
+
+/// A checked shape, ready to load.
+struct ShapePlan {
+    key: String,
+    geometry: Geometry,
+    to_world: Mat4,
+    linear: Mat3,
+    det: f32,
+    flat: bool,
+    flip: bool,
+    material: u32,
+    radiance: Option<Vec3>,
+}
+
+/// A checked environment emitter.
+enum EmitterPlan {
+    Env {
+        key: String,
+        path: PathBuf,
+        scale: f32,
+        to_world: Mat4,
+    },
+    Constant {
+        radiance: Vec3,
+    },
+}
+
+/// Parses and builds a scene; `name` is the file name used in errors, `base_dir` resolves relative paths.
+pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Scene, SceneError> {
+    let mut ctx = ErrorContext {
+        file: name.to_path_buf(),
+        spans: SpanIndex::default(),
+    };
+    if let Err(e) = toml::from_str::<toml::Table>(text) {
+        ctx.spans = SpanIndex::lines_only(text);
+        return Err(ctx.syntax(&e));
+    }
+    ctx.spans = SpanIndex::new(text);
+    let file: SceneFile = toml::from_str(text).map_err(|e| ctx.toml_error(&e))?;
+
+    // Phase 1: plan.
+    let integrator = integrator_settings(&ctx, &file)?;
+    let camera = camera(&ctx, &file)?;
+    let mut materials = Materials::new(&ctx, &file.bsdf)?;
+    let mut shape_plans = Vec::with_capacity(file.shape.len());
+    for (i, shape) in file.shape.iter().enumerate() {
+        shape_plans.push(plan_shape(&ctx, &join_index("shape", i), shape, base_dir, &mut materials)?);
+    }
+    let mut emitter_plans = Vec::with_capacity(file.emitter.len());
+    for (i, emitter) in file.emitter.iter().enumerate() {
+        emitter_plans.push(plan_emitter(&ctx, &join_index("emitter", i), emitter, base_dir)?);
+    }
+    let bsdfs: Vec<Bsdf> = materials.bsdfs;
+
+    // Phase 2: every referenced file exists.
+    let files = shape_plans
+        .iter()
+        .filter_map(|s| match &s.geometry {
+            Geometry::File { path } => Some((join_key(&s.key, "filename"), path)),
+            _ => None,
+        })
+        .chain(emitter_plans.iter().filter_map(|e| match e {
+            EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path)),
+            EmitterPlan::Constant { .. } => None,
+        }));
+    for (key, path) in files {
+        if !path.exists() {
+            return Err(ctx.missing_file(&key, path));
+        }
+        if !path.is_file() {
+            return Err(ctx.asset_error(&key, path, "not a regular file"));
+        }
+    }
+
+    // Phase 3: load and flatten.
+    let mut mesh = TriangleMesh {
+        normals: Some(Vec::new()),
+        ..Default::default()
+    };
+    let mut tri_material = Vec::new();
+    let mut tri_flat = Vec::new();
+    let mut lights = Vec::new();
+    for plan in &shape_plans {
+        let placed = load_and_place(&ctx, plan)?;
+        let base = mesh.triangle_count();
+        let n = placed.triangle_count();
+        if (base + n) as u64 > u64::from(u32::MAX) {
+            return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
+        }
+        mesh.append(&placed);
+        tri_material.extend(std::iter::repeat(plan.material).take(n));
+        tri_flat.extend(std::iter::repeat(plan.flat).take(n));
+        if let Some(radiance) = plan.radiance {
+            let triangles: Vec<(u32, [Vec3; 3])> = (0..n).map(|i| ((base + i) as u32, placed.triangle(i))).collect();
+            let area: f32 = triangles
+                .iter()
+                .map(|(_, [p0, p1, p2])| 0.5 * (*p1 - *p0).cross(*p2 - *p0).length())
+                .sum();
+            // Lights that cannot emit anything are left out (zero radiance or zero area).
+            if radiance.max_element() > 0.0 && area > 0.0 {
+                lights.push(Light::Area(AreaLight::new(radiance, triangles)));
+            }
+        }
+    }
+    for plan in emitter_plans {
+        match plan {
+            EmitterPlan::Env {
+                key,
+                path,
+                scale,
+                to_world,
+            } => {
+                if scale > 0.0 {
+                    let env = EnvMap::load(&path, scale, to_world)
+                        .map_err(|e| ctx.asset_error(&join_key(&key, "filename"), &path, e.to_string()))?;
+                    lights.push(Light::Env(env));
+                }
+            }
+            EmitterPlan::Constant { radiance } => {
+                if radiance.max_element() > 0.0 {
+                    lights.push(Light::Constant { radiance });
+                }
+            }
+        }
+    }
+    let bounds = mesh.bounds();
+    let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
+    Ok(Scene {
+        path: name.to_path_buf(),
+        mesh,
+        tri_material,
+        tri_flat,
+        bsdfs,
+        lights,
+        camera,
+        integrator,
+        bounds,
+    })
+}
+
+fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<IntegratorSettings, SceneError> {
+    let d = &file.integrator;
+    if d.max_depth < -1 {
+        return Err(ctx.key_error(
+            "integrator.max_depth",
+            format!("must be -1 (unlimited) or ≥ 0, got {}", d.max_depth),
+        ));
+    }
+    if d.rr_depth == 0 {
+        return Err(ctx.key_error("integrator.rr_depth", "must be ≥ 1"));
+    }
+    if d.samples_per_pixel == 0 {
+        return Err(ctx.key_error("integrator.samples_per_pixel", "must be ≥ 1"));
+    }
+    let caustics = match &d.caustics {
+        None => CausticsSettings::default(),
+        Some(c) => {
+            if c.photons == Some(0) {
+                return Err(ctx.key_error("integrator.caustics.photons", "must be ≥ 1"));
+            }
+            if c.knn == 0 {
+                return Err(ctx.key_error("integrator.caustics.knn", "must be ≥ 1"));
+            }
+            let max_radius = c
+                .max_radius
+                .map(|r| ctx.positive("integrator.caustics.max_radius", r, "max_radius"))
+                .transpose()?;
+            CausticsSettings {
+                estimator: c.estimator,
+                photons: c.photons,
+                knn: c.knn,
+                max_radius,
+            }
+        }
+    };
+    Ok(IntegratorSettings {
+        max_depth: d.max_depth,
+        rr_depth: d.rr_depth,
+        samples_per_pixel: d.samples_per_pixel,
+        seed: d.seed,
+        caustics,
+    })
+}
+
+fn camera(ctx: &ErrorContext, file: &SceneFile) -> Result<Camera, SceneError> {
+    let s = &file.sensor;
+    match s.kind {
+        SensorType::Perspective => {}
+    }
+    let to_world = to_world_matrix(ctx, "sensor.to_world", s.to_world.as_ref())?;
+    if s.to_world.is_some() {
+        invertible_linear_part(ctx, "sensor.to_world", to_world)?;
+    }
+    let mut camera = Camera::new(to_world, s.fov, s.fov_axis, s.film.width, s.film.height).map_err(|e| match e {
+        CameraError::Fov(_) => ctx.key_error("sensor.fov", e.to_string()),
+        CameraError::ZeroSizeFilm { width: 0, .. } => ctx.key_error("sensor.film.width", e.to_string()),
+        CameraError::ZeroSizeFilm { .. } => ctx.key_error("sensor.film.height", e.to_string()),
+        CameraError::FilmTooLarge { .. } => ctx.key_error("sensor.film", e.to_string()),
+        CameraError::Crop { .. } | CameraError::Transform => ctx.key_error("sensor.to_world", e.to_string()),
+    })?;
+    if let Some([x0, y0, x1, y1]) = s.film.crop {
+        camera
+            .set_crop(x0, y0, x1, y1)
+            .map_err(|e| ctx.key_error("sensor.film.crop", e.to_string()))?;
+    }
+    Ok(camera)
+}
+
+/// Rejects keys that do not apply to the shape's type.
+fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), SceneError> {
+    let specific: &[&str] = match s.kind {
+        ShapeType::Obj | ShapeType::Ply => &["filename", "face_normals"],
+        ShapeType::Sphere => &["center", "radius", "rings", "segments", "face_normals"],
+        ShapeType::Rectangle | ShapeType::Cube => &[],
+    };
+    let present = [
+        ("filename", s.filename.is_some()),
+        ("face_normals", s.face_normals.is_some()),
+        ("center", s.center.is_some()),
+        ("radius", s.radius.is_some()),
+        ("rings", s.rings.is_some()),
+        ("segments", s.segments.is_some()),
+    ];
+    if let Some((name, _)) = present.iter().find(|(name, p)| *p && !specific.contains(name)) {
+        let mut keys = vec!["to_world", "bsdf", "emitter", "flip_normals"];
+        keys.extend_from_slice(specific);
+        return Err(ctx.key_error(
+            &join_key(key, name),
+            format!(
+                "`{name}` does not apply to shape type `{}` (its keys: {})",
+                s.kind.name(),
+                keys.join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
+    check_shape_keys(ctx, key, s)?;
+    let geometry = match s.kind {
+        ShapeType::Obj | ShapeType::Ply => {
+            let Some(filename) = &s.filename else {
+                return Err(ctx.key_error(key, format!("shape type `{}` needs `filename`", s.kind.name())));
+            };
+            let lower = filename.to_ascii_lowercase();
+            let ok = match s.kind {
+                ShapeType::Obj => lower.ends_with(".obj"),
+                _ => lower.ends_with(".ply") || lower.ends_with(".ply.gz"),
+            };
+            if !ok {
+                let expected = if s.kind == ShapeType::Obj { ".obj" } else { ".ply or .ply.gz" };
+                return Err(ctx.key_error(
+                    &join_key(key, "filename"),
+                    format!("a `{}` shape needs a {expected} file, got {filename:?}", s.kind.name()),
+                ));
+            }
+            Geometry::File {
+                path: base_dir.join(filename),
+            }
+        }
+        ShapeType::Rectangle => Geometry::Rectangle,
+        ShapeType::Cube => Geometry::Cube,
+        ShapeType::Sphere => {
+            let center = ctx.finite3(&join_key(key, "center"), Vec3::from(s.center.unwrap_or_default()))?;
+            let radius = ctx.positive(&join_key(key, "radius"), s.radius.unwrap_or(1.0), "the radius")?;
+            let rings = s.rings.unwrap_or(SPHERE_RINGS);
+            let segments = s.segments.unwrap_or(SPHERE_SEGMENTS);
+            if rings < 2 {
+                return Err(ctx.key_error(&join_key(key, "rings"), format!("a sphere needs at least 2 rings, got {rings}")));
+            }
+            if segments < 3 {
+                return Err(ctx.key_error(
+                    &join_key(key, "segments"),
+                    format!("a sphere needs at least 3 segments, got {segments}"),
+                ));
+            }
+            if 2 * u64::from(rings) * u64::from(segments) > SPHERE_MAX_TRIANGLES {
+                return Err(ctx.key_error(
+                    key,
+                    format!("rings × segments = {rings} × {segments} gives more than 2^26 triangles"),
+                ));
+            }
+            Geometry::Sphere {
+                center,
+                radius,
+                rings,
+                segments,
+            }
+        }
+    };
+    let to_world_key = join_key(key, "to_world");
+    let to_world = to_world_matrix(ctx, &to_world_key, s.to_world.as_ref())?;
+    let (linear, det) = invertible_linear_part(ctx, &to_world_key, to_world)?;
+    let material = materials.index_for(ctx, &join_key(key, "bsdf"), s.bsdf.as_ref())?;
+    let radiance = s
+        .emitter
+        .as_ref()
+        .map(|e| match e.kind {
+            AreaEmitterType::Area => ctx.radiance(&join_key(&join_key(key, "emitter"), "radiance"), e.radiance.0),
+        })
+        .transpose()?;
+    // Rectangles and cubes are flat by construction; meshes and spheres when face_normals = true.
+    let flat = matches!(s.kind, ShapeType::Rectangle | ShapeType::Cube) || s.face_normals.unwrap_or(false);
+    Ok(ShapePlan {
+        key: key.to_string(),
+        geometry,
+        to_world,
+        linear,
+        det,
+        flat,
+        flip: s.flip_normals.unwrap_or(false),
+        material,
+        radiance,
+    })
+}
+
+fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path) -> Result<EmitterPlan, SceneError> {
+    let specific: &[&str] = match e.kind {
+        EmitterType::Envmap => &["filename", "scale", "to_world"],
+        EmitterType::Constant => &["radiance"],
+    };
+    let present = [
+        ("filename", e.filename.is_some()),
+        ("scale", e.scale.is_some()),
+        ("to_world", e.to_world.is_some()),
+        ("radiance", e.radiance.is_some()),
+    ];
+    if let Some((name, _)) = present.iter().find(|(name, p)| *p && !specific.contains(name)) {
+        return Err(ctx.key_error(
+            &join_key(key, name),
+            format!(
+                "`{name}` does not apply to emitter type `{}` (its keys: {})",
+                e.kind.name(),
+                specific.join(", ")
+            ),
+        ));
+    }
+    Ok(match e.kind {
+        EmitterType::Envmap => {
+            let Some(filename) = &e.filename else {
+                return Err(ctx.key_error(key, "emitter type `envmap` needs `filename`"));
+            };
+            let scale_key = join_key(key, "scale");
+            let scale = ctx.finite(&scale_key, e.scale.unwrap_or(1.0))?;
+            if scale < 0.0 {
+                return Err(ctx.key_error(&scale_key, format!("the scale must be ≥ 0, got {scale}")));
+            }
+            let to_world_key = join_key(key, "to_world");
+            let to_world = to_world_matrix(ctx, &to_world_key, e.to_world.as_ref())?;
+            invertible_linear_part(ctx, &to_world_key, to_world)?;
+            EmitterPlan::Env {
+                key: key.to_string(),
+                path: base_dir.join(filename),
+                scale,
+                to_world,
+            }
+        }
+        EmitterType::Constant => {
+            let radiance = e
+                .radiance
+                .map_or(Ok(Vec3::ONE), |c| ctx.radiance(&join_key(key, "radiance"), c.0))?;
+            EmitterPlan::Constant { radiance }
+        }
+    })
+}
+
+/// The shape's triangles in world space, with per-vertex normals.
+fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, SceneError> {
+    let mut mesh = match &plan.geometry {
+        Geometry::File { path } => {
+            let key = join_key(&plan.key, "filename");
+            let mesh = crate::mesh::load_mesh(path).map_err(|e| ctx.asset_error(&key, path, e.to_string()))?;
+            check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
+            mesh
+        }
+        Geometry::Rectangle => shapes::rectangle(),
+        Geometry::Cube => shapes::cube(),
+        Geometry::Sphere {
+            center,
+            radius,
+            rings,
+            segments,
+        } => shapes::sphere(*center, *radius, *rings, *segments),
+    };
+    let m = plan.to_world;
+    for p in &mut mesh.positions {
+        *p = m.transform_point3(*p);
+    }
+    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(ctx.key_error(
+            &join_key(&plan.key, "to_world"),
+            format!("vertex {i} is not finite after the transform"),
+        ));
+    }
+    // Winding: keep (p1−p0)×(p2−p0) on the side of the transformed normals (see the module docs).
+    if (plan.det < 0.0) != plan.flip {
+        for t in &mut mesh.indices {
+            t.swap(1, 2);
+        }
+    }
+    let sign = if plan.flip { -1.0 } else { 1.0 };
+    let normals = match mesh.normals.take() {
+        Some(mut normals) => {
+            let normal_matrix = plan.linear.inverse().transpose();
+            for n in &mut normals {
+                *n = sign * (normal_matrix * *n).normalize_or_zero();
+            }
+            normals
+        }
+        None => vertex_normals(&mesh),
+    };
+    mesh.normals = Some(normals);
+    Ok(mesh)
+}
+
+/// Structural checks of a loaded mesh (the loaders should guarantee them; a bad file must not panic later).
+fn check_mesh(mesh: &TriangleMesh) -> Result<(), String> {
+    if mesh.indices.is_empty() {
+        return Err("the mesh has no triangles".into());
+    }
+    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!("vertex {i} is not finite"));
+    }
+    let n = mesh.positions.len();
+    if let Some(t) = mesh.indices.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
+        return Err(format!("triangle {t} indexes a vertex past the {n} given"));
+    }
+    if mesh.normals.as_ref().is_some_and(|v| v.len() != n) {
+        return Err("the mesh has a different number of normals and positions".into());
+    }
+    if mesh.uvs.as_ref().is_some_and(|v| v.len() != n) {
+        return Err("the mesh has a different number of uvs and positions".into());
+    }
+    Ok(())
+}
+
+/// Angle-weighted vertex normals (Thürmer & Wüthrich 1998), as Mitsuba computes them for meshes without
+/// normals; zero for vertices of degenerate triangles only (the interaction then falls back to the
+/// geometric normal).
+fn vertex_normals(mesh: &TriangleMesh) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; mesh.positions.len()];
+    for t in &mesh.indices {
+        let p = t.map(|i| mesh.positions[i as usize]);
+        let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+            continue;
+        };
+        for k in 0..3 {
+            let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+            let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+            let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+            normals[t[k] as usize] += angle * n;
+        }
+    }
+    for n in &mut normals {
+        *n = n.normalize_or_zero();
+    }
+    normals
+}

@@ -1,0 +1,394 @@
+//! The scene file as written: serde types mirroring the TOML, with `deny_unknown_fields` everywhere.
+//! Values are checked for range and consistency later (in `build`, `material`, `transform`), where the key
+//! path of every value is known; this module only decides what shapes of TOML are accepted.
+//!
+//! Values that accept two forms (a colour as a number or `[r, g, b]`; a bsdf as a name or an inline table;
+//! `to_world` as one table or a list) have hand-written visitors instead of `#[serde(untagged)]`, so that
+//! the deserialiser keeps streaming from the document and every error keeps the span of its key.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
+use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize as DeriveDeserialize;
+
+use super::settings::Estimator;
+use crate::camera::FovAxis;
+use crate::math::Vec3;
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SceneFile {
+    #[serde(default)]
+    pub integrator: IntegratorDesc,
+    pub sensor: SensorDesc,
+    #[serde(default)]
+    pub bsdf: BTreeMap<String, BsdfDesc>,
+    #[serde(default)]
+    pub shape: Vec<ShapeDesc>,
+    #[serde(default)]
+    pub emitter: Vec<EmitterDesc>,
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct IntegratorDesc {
+    pub max_depth: i32,
+    pub rr_depth: u32,
+    pub samples_per_pixel: u32,
+    pub seed: u64,
+    pub caustics: Option<CausticsDesc>,
+}
+
+impl Default for IntegratorDesc {
+    fn default() -> Self {
+        Self {
+            max_depth: -1,
+            rr_depth: 5,
+            samples_per_pixel: 16,
+            seed: 0,
+            caustics: None,
+        }
+    }
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct CausticsDesc {
+    pub estimator: Estimator,
+    pub photons: Option<u64>,
+    pub knn: u32,
+    pub max_radius: Option<f32>,
+}
+
+impl Default for CausticsDesc {
+    fn default() -> Self {
+        Self {
+            estimator: Estimator::Pt,
+            photons: None,
+            knn: 50,
+            max_radius: None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum SensorType {
+    #[default]
+    Perspective,
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SensorDesc {
+    #[serde(rename = "type", default)]
+    pub kind: SensorType,
+    pub fov: f32,
+    #[serde(default)]
+    pub fov_axis: FovAxis,
+    pub to_world: Option<ToWorld>,
+    #[serde(default)]
+    pub film: FilmDesc,
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct FilmDesc {
+    pub width: u32,
+    pub height: u32,
+    pub crop: Option<[u32; 4]>,
+}
+
+impl Default for FilmDesc {
+    /// Mitsuba's `hdrfilm` default size.
+    fn default() -> Self {
+        Self {
+            width: 768,
+            height: 576,
+            crop: None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum BsdfType {
+    Diffuse,
+    Conductor,
+    RoughConductor,
+    Dielectric,
+    BlendBsdf,
+}
+
+impl BsdfType {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            BsdfType::Diffuse => "diffuse",
+            BsdfType::Conductor => "conductor",
+            BsdfType::RoughConductor => "roughconductor",
+            BsdfType::Dielectric => "dielectric",
+            BsdfType::BlendBsdf => "blendbsdf",
+        }
+    }
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct BsdfDesc {
+    #[serde(rename = "type")]
+    pub kind: BsdfType,
+    pub reflectance: Option<Colour>,
+    pub specular_reflectance: Option<Colour>,
+    pub eta: Option<Colour>,
+    pub k: Option<Colour>,
+    pub alpha: Option<f32>,
+    pub distribution: Option<String>,
+    pub int_ior: Option<Ior>,
+    pub ext_ior: Option<Ior>,
+    pub weight: Option<f32>,
+    pub bsdf_0: Option<Box<BsdfRef>>,
+    pub bsdf_1: Option<Box<BsdfRef>>,
+}
+
+/// A bsdf given by the name of a `[bsdf.<name>]` table or inline.
+#[derive(Debug)]
+pub(crate) enum BsdfRef {
+    Name(String),
+    Inline(Box<BsdfDesc>),
+}
+
+impl<'de> Deserialize<'de> for BsdfRef {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = BsdfRef;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("the name of a [bsdf.<name>] table or an inline bsdf table")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<BsdfRef, E> {
+                Ok(BsdfRef::Name(v.to_string()))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<BsdfRef, A::Error> {
+                BsdfDesc::deserialize(MapAccessDeserializer::new(map)).map(|d| BsdfRef::Inline(Box::new(d)))
+            }
+        }
+        deserializer.deserialize_any(V)
+    }
+}
+
+/// An index of refraction: a number or one of Mitsuba's named materials (`"bk7"`, `"water"`, ...).
+#[derive(Clone, Debug)]
+pub(crate) enum Ior {
+    Value(f32),
+    Name(String),
+}
+
+impl<'de> Deserialize<'de> for Ior {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Ior;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or the name of a material (e.g. \"bk7\")")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Ior, E> {
+                Ok(Ior::Value(v as f32))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Ior, E> {
+                Ok(Ior::Value(v as f32))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Ior, E> {
+                Ok(Ior::Value(v as f32))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Ior, E> {
+                Ok(Ior::Name(v.to_string()))
+            }
+        }
+        deserializer.deserialize_any(V)
+    }
+}
+
+/// An RGB triple written as one number (gray) or `[r, g, b]`. Range checks happen where the meaning is known.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Colour(pub Vec3);
+
+/// Reads a number or an array of exactly three numbers (colours, `scale`).
+struct NumberOrTriple(&'static str);
+
+impl<'de> Visitor<'de> for NumberOrTriple {
+    type Value = Vec3;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Vec3, E> {
+        Ok(Vec3::splat(v as f32))
+    }
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Vec3, E> {
+        Ok(Vec3::splat(v as f32))
+    }
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Vec3, E> {
+        Ok(Vec3::splat(v as f32))
+    }
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Vec3, A::Error> {
+        let v = Vec::<f32>::deserialize(SeqAccessDeserializer::new(seq))?;
+        match v.as_slice() {
+            [x, y, z] => Ok(Vec3::new(*x, *y, *z)),
+            _ => Err(A::Error::invalid_length(v.len(), &self)),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Colour {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer
+            .deserialize_any(NumberOrTriple("a number (gray) or an array [r, g, b]"))
+            .map(Colour)
+    }
+}
+
+/// `scale = s` (uniform) or `scale = [sx, sy, sz]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ScaleDesc(pub Vec3);
+
+impl<'de> Deserialize<'de> for ScaleDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer
+            .deserialize_any(NumberOrTriple("a number or an array [sx, sy, sz]"))
+            .map(ScaleDesc)
+    }
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RotateDesc {
+    pub axis: [f32; 3],
+    /// Degrees, counter-clockwise about `axis` (right-handed), as Mitsuba.
+    pub angle: f32,
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LookAtDesc {
+    pub origin: [f32; 3],
+    pub target: [f32; 3],
+    pub up: [f32; 3],
+}
+
+/// One element of a `to_world`: exactly one of its keys must be present (checked in `transform`).
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct TransformOp {
+    pub translate: Option<[f32; 3]>,
+    pub rotate: Option<RotateDesc>,
+    pub scale: Option<ScaleDesc>,
+    pub look_at: Option<LookAtDesc>,
+    pub matrix: Option<Vec<f32>>,
+}
+
+/// `to_world`: one transform table or a list of them (the first listed is applied first).
+#[derive(Debug)]
+pub(crate) enum ToWorld {
+    One(TransformOp),
+    List(Vec<TransformOp>),
+}
+
+impl<'de> Deserialize<'de> for ToWorld {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ToWorld;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a transform table (translate, rotate, scale, look_at or matrix) or a list of them")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ToWorld, A::Error> {
+                TransformOp::deserialize(MapAccessDeserializer::new(map)).map(ToWorld::One)
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<ToWorld, A::Error> {
+                Vec::<TransformOp>::deserialize(SeqAccessDeserializer::new(seq)).map(ToWorld::List)
+            }
+        }
+        deserializer.deserialize_any(V)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum ShapeType {
+    Obj,
+    Ply,
+    Rectangle,
+    Cube,
+    Sphere,
+}
+
+impl ShapeType {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            ShapeType::Obj => "obj",
+            ShapeType::Ply => "ply",
+            ShapeType::Rectangle => "rectangle",
+            ShapeType::Cube => "cube",
+            ShapeType::Sphere => "sphere",
+        }
+    }
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ShapeDesc {
+    #[serde(rename = "type")]
+    pub kind: ShapeType,
+    pub filename: Option<String>,
+    pub face_normals: Option<bool>,
+    pub flip_normals: Option<bool>,
+    pub center: Option<[f32; 3]>,
+    pub radius: Option<f32>,
+    pub rings: Option<u32>,
+    pub segments: Option<u32>,
+    pub to_world: Option<ToWorld>,
+    pub bsdf: Option<BsdfRef>,
+    pub emitter: Option<AreaEmitterDesc>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum AreaEmitterType {
+    Area,
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct AreaEmitterDesc {
+    #[serde(rename = "type")]
+    pub kind: AreaEmitterType,
+    pub radiance: Colour,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum EmitterType {
+    Envmap,
+    Constant,
+}
+
+impl EmitterType {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            EmitterType::Envmap => "envmap",
+            EmitterType::Constant => "constant",
+        }
+    }
+}
+
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct EmitterDesc {
+    #[serde(rename = "type")]
+    pub kind: EmitterType,
+    pub filename: Option<String>,
+    pub scale: Option<f32>,
+    pub to_world: Option<ToWorld>,
+    pub radiance: Option<Colour>,
+}

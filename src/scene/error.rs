@@ -1,0 +1,159 @@
+//! [`SceneError`]: every way a scene file can be rejected. Each error names the scene file, the key path
+//! inside it (`shape[3].bsdf.reflectance`, `sensor.fov`) with its line when known, and the problem.
+
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use super::spans::SpanIndex;
+
+/// Why a scene file was rejected.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The scene file itself cannot be read.
+    #[error("{}: cannot read the scene file: {source}", file.display())]
+    Read { file: PathBuf, source: std::io::Error },
+    /// The file is not valid TOML.
+    #[error("{}:{line}:{column}: TOML syntax error: {message}", file.display())]
+    Syntax {
+        file: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// A key is unknown, missing, of the wrong type, or has a value out of range; or a reference to a named
+    /// material does not resolve.
+    #[error("{}{}: {}: {message}", file.display(), Line(*line), KeyPath(key))]
+    Key {
+        file: PathBuf,
+        key: String,
+        line: Option<usize>,
+        message: String,
+    },
+    /// A file the scene refers to (mesh, environment map) does not exist.
+    #[error("{}{}: {}: file not found: {}", file.display(), Line(*line), KeyPath(key), missing.display())]
+    MissingFile {
+        file: PathBuf,
+        key: String,
+        line: Option<usize>,
+        missing: PathBuf,
+    },
+    /// A file the scene refers to exists but cannot be loaded.
+    #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), asset.display())]
+    Asset {
+        file: PathBuf,
+        key: String,
+        line: Option<usize>,
+        asset: PathBuf,
+        message: String,
+    },
+}
+
+impl SceneError {
+    /// The scene file the error is about.
+    #[must_use]
+    pub fn file(&self) -> &Path {
+        match self {
+            SceneError::Read { file, .. }
+            | SceneError::Syntax { file, .. }
+            | SceneError::Key { file, .. }
+            | SceneError::MissingFile { file, .. }
+            | SceneError::Asset { file, .. } => file,
+        }
+    }
+
+    /// The key path the error is about (`""` = the top level), if the error is about a key.
+    #[must_use]
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            SceneError::Key { key, .. } | SceneError::MissingFile { key, .. } | SceneError::Asset { key, .. } => Some(key),
+            SceneError::Read { .. } | SceneError::Syntax { .. } => None,
+        }
+    }
+}
+
+/// Formats `:line` when the line is known.
+struct Line(Option<usize>);
+
+impl fmt::Display for Line {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            Some(line) => write!(f, ":{line}"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Formats a key path, naming the empty path.
+struct KeyPath<'a>(&'a str);
+
+impl fmt::Display for KeyPath<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.0.is_empty() {
+            f.write_str("(top level)")
+        } else {
+            f.write_str(self.0)
+        }
+    }
+}
+
+/// What every error constructor needs: the file name and the document's span index.
+pub(crate) struct ErrorContext {
+    pub(crate) file: PathBuf,
+    pub(crate) spans: SpanIndex,
+}
+
+impl ErrorContext {
+    /// A [`SceneError::Key`] about `key`.
+    pub(crate) fn key_error(&self, key: &str, message: impl Into<String>) -> SceneError {
+        SceneError::Key {
+            file: self.file.clone(),
+            key: key.to_string(),
+            line: self.spans.line_of(key),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn missing_file(&self, key: &str, missing: &Path) -> SceneError {
+        SceneError::MissingFile {
+            file: self.file.clone(),
+            key: key.to_string(),
+            line: self.spans.line_of(key),
+            missing: missing.to_path_buf(),
+        }
+    }
+
+    pub(crate) fn asset_error(&self, key: &str, asset: &Path, message: impl Into<String>) -> SceneError {
+        SceneError::Asset {
+            file: self.file.clone(),
+            key: key.to_string(),
+            line: self.spans.line_of(key),
+            asset: asset.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    /// Converts an error of the typed deserialiser: its span names the key, its message the problem.
+    pub(crate) fn toml_error(&self, error: &toml::de::Error) -> SceneError {
+        let span: Option<Range<usize>> = error.span();
+        let key = span.as_ref().and_then(|s| self.spans.path_at(s)).unwrap_or_default();
+        let line = span.as_ref().map(|s| self.spans.line_col(s.start).0);
+        SceneError::Key {
+            file: self.file.clone(),
+            key,
+            line,
+            message: error.message().trim().to_string(),
+        }
+    }
+
+    /// Converts a syntax error of the TOML parser.
+    pub(crate) fn syntax(&self, error: &toml::de::Error) -> SceneError {
+        let (line, column) = error.span().map_or((1, 1), |s| self.spans.line_col(s.start));
+        SceneError::Syntax {
+            file: self.file.clone(),
+            line,
+            column,
+            message: error.message().trim().to_string(),
+        }
+    }
+}

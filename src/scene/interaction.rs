@@ -1,0 +1,92 @@
+//! The one function that turns a backend's preliminary hit `(t, prim, u, v)` into shading data, and the
+//! rules for spawning rays from a surface. Both intersection backends go through it, so they shade
+//! identically (Mitsuba 3's `compute_surface_interaction`; pbrt-v4 `Triangle::InteractionFromIntersection`).
+
+use super::Scene;
+use crate::accel::Hit;
+use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Ray, Vec2, Vec3};
+
+/// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
+/// target lies on does not occlude it.
+pub const SHADOW_EPSILON: f32 = 1e-4;
+
+/// Shading data at a ray–surface hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceInteraction {
+    /// Hit point rebuilt from the barycentrics: `p = (1−u−v)·p0 + u·p1 + v·p2`.
+    pub p: Vec3,
+    /// Conservative absolute error bound of `p` per axis (`math::barycentric_point_error`), for
+    /// `offset_ray_origin`.
+    pub p_error: Vec3,
+    /// Unit geometric normal, `normalize((p1−p0)×(p2−p0))`.
+    pub ng: Vec3,
+    /// Unit shading normal: interpolated vertex normals (or `ng` for flat triangles and degenerate
+    /// interpolations), flipped into `ng`'s hemisphere.
+    pub ns: Vec3,
+    /// Shading frame around `ns`.
+    pub frame: Frame,
+    /// The hit's barycentrics `(u, v)` (Embree's convention: weights of p1 and p2).
+    pub uv: Vec2,
+    /// Global triangle index.
+    pub prim: u32,
+    /// Index into `Scene::bsdfs`.
+    pub material: u32,
+}
+
+impl SurfaceInteraction {
+    /// A ray leaving the surface in direction `dir`, its origin offset to the side `dir` points into.
+    #[must_use]
+    pub fn spawn_ray(&self, dir: Vec3) -> Ray {
+        Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, dir), dir)
+    }
+
+    /// A shadow ray towards `p_target`: `dir = p_target − origin` (not normalised), `t ∈ [0, 1 − ε]` with
+    /// ε = [`SHADOW_EPSILON`], so only occluders strictly between the two points are found.
+    #[must_use]
+    pub fn spawn_ray_to(&self, p_target: Vec3) -> Ray {
+        let origin = offset_ray_origin(self.p, self.p_error, self.ng, p_target - self.p);
+        Ray::segment(origin, p_target - origin, 0.0, 1.0 - SHADOW_EPSILON)
+    }
+}
+
+impl Scene {
+    /// Shading data for `hit` on `ray` (the hit must come from an accelerator built over `self.mesh`).
+    #[must_use]
+    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let i = hit.prim as usize;
+        debug_assert!(i < self.mesh.indices.len(), "hit on triangle {i} of {}", self.mesh.indices.len());
+        let idx = self.mesh.indices[i];
+        let [p0, p1, p2] = idx.map(|k| self.mesh.positions[k as usize]);
+        let (u, v) = (hit.u, hit.v);
+        let b0 = 1.0 - u - v;
+        let p = b0 * p0 + u * p1 + v * p2;
+        let p_error = barycentric_point_error([b0, u, v], [p0, p1, p2]);
+        // A zero-area triangle has no normal; face the ray so that spawned rays still leave the surface.
+        let ng = (p1 - p0)
+            .cross(p2 - p0)
+            .try_normalize()
+            .unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
+        let interpolated = if self.tri_flat[i] {
+            None
+        } else {
+            self.mesh
+                .normals
+                .as_ref()
+                .and_then(|n| (b0 * n[idx[0] as usize] + u * n[idx[1] as usize] + v * n[idx[2] as usize]).try_normalize())
+        };
+        let mut ns = interpolated.unwrap_or(ng);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        SurfaceInteraction {
+            p,
+            p_error,
+            ng,
+            ns,
+            frame: Frame::from_normal(ns),
+            uv: Vec2::new(u, v),
+            prim: hit.prim,
+            material: self.tri_material[i],
+        }
+    }
+}
