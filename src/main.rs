@@ -26,12 +26,18 @@ struct Cli {
 enum Command {
     /// Measure build time and ray throughput of the intersection backends on meshes.
     Bench(caustica::bench::BenchArgs),
+    /// Render a scene file to EXR (and PNG), with statistics.
+    Render(caustica::cmd::render::RenderArgs),
+    /// Compare an image with a reference: RMSE, relMSE, block and region errors.
+    Compare(caustica::report::compare::CompareArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Bench(args) => caustica::bench::run(args),
+        Command::Render(args) => caustica::cmd::render::run(args),
+        Command::Compare(args) => caustica::report::compare::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

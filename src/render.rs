@@ -16,10 +16,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::accel::Accel;
-use crate::film::{Film, TileBuffer};
+use crate::film::{Film, FilmError, TileBuffer};
 use crate::integrator::{CausticEstimator, PathStats, PathTracer};
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{trace_photons, PhotonMap, PhotonPassStats};
+use crate::photon::{trace_photons, KdTreeError, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
 use crate::scene::{Estimator, Scene};
 
@@ -40,6 +40,15 @@ pub struct RenderSettings {
     pub photons: u64,
     pub knn: u32,
     pub max_radius: f32,
+}
+
+/// A render that could not run to the end (both are internal limits, not user errors).
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("photon map: {0}")]
+    PhotonMap(#[from] KdTreeError),
+    #[error("film: {0}")]
+    Film(#[from] FilmError),
 }
 
 /// Why the photon pass (or another phase) did not run.
@@ -102,7 +111,7 @@ pub fn render(
     cancel: &AtomicBool,
     mut on_pass: impl FnMut(&Film, &PassInfo),
     on_tile: &(dyn Fn(u64) + Sync),
-) -> RenderPhaseStats {
+) -> Result<RenderPhaseStats, RenderError> {
     let start = Instant::now();
     let mut stats = RenderPhaseStats::default();
     let photons_needed = photon_pass_needed(scene, settings.estimator);
@@ -128,7 +137,7 @@ pub fn render(
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass));
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass))?;
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -151,7 +160,7 @@ pub fn render(
                 if cancel.load(Ordering::Relaxed) {
                     return None;
                 }
-                let mut buf = film.tile_buffer(tile);
+                let mut buf = TileBuffer::new(*tile);
                 let mut ps = PathStats::default();
                 let mut knn = KnnResult::default();
                 for y in tile.y0..tile.y1 {
@@ -174,7 +183,7 @@ pub fn render(
         // per pixel, so every pixel's mean stays unbiased) and the render is marked partial.
         let cancelled = results.iter().any(Option::is_none);
         for (buf, ps) in results.into_iter().flatten() {
-            film.merge_tile(&buf);
+            film.merge_tile(&buf)?;
             stats.rays_traced += ps.rays;
             stats.knn_queries += ps.knn_queries;
         }
@@ -199,5 +208,5 @@ pub fn render(
     }
     stats.spp = spp_done;
     stats.passes = pass;
-    stats
+    Ok(stats)
 }

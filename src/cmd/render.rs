@@ -11,7 +11,7 @@ use anyhow::{bail, Context};
 use serde::Serialize;
 
 use crate::accel::{build_accel, embree_version, BackendKind};
-use crate::film::{write_exr, write_png, Film, Tonemap};
+use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
 use crate::render::{render, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
@@ -149,14 +149,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if w == 0 || h == 0 {
             bail!("--width/--height must be positive");
         }
-        scene.camera.set_resolution(w, h);
+        scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
     }
     if let Some(c) = &args.crop {
         let [x0, y0, x1, y1] = parse_crop(c)?;
         if x1 > scene.camera.width() || y1 > scene.camera.height() {
             bail!("--crop {c}: outside the {}x{} film", scene.camera.width(), scene.camera.height());
         }
-        scene.camera.set_crop(x0, y0, x1, y1);
+        scene.camera.set_crop(x0, y0, x1, y1).map_err(|e| anyhow::anyhow!("--crop {c}: {e}"))?;
     }
     let integ = &scene.integrator;
     let caus = &integ.caustics;
@@ -201,10 +201,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let show_progress = !args.quiet && std::io::stdout().is_terminal();
     let progress = crate::cmd::progress::Progress::new(show_progress, &settings, pixels);
-    let mut film = Film::new(scene.camera.width(), scene.camera.height(), scene.camera.crop());
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
     let phases = pool.install(|| {
         render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |_, info| progress.pass_done(info), &|samples| progress.tile_done(samples))
-    });
+    })?;
     progress.finish();
 
     let image = film.image();
@@ -240,8 +240,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         photons_stored: phases.photons_stored,
         photon_bytes: phases.photon_bytes,
         photon_chains_capped: phases.photon_chains_capped,
-        nan_pixels: film.nan_samples(),
-        inf_pixels: film.inf_samples(),
+        nan_pixels: film.nan_count(),
+        inf_pixels: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
     };
@@ -270,5 +270,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 /// Writes JSON to `path` atomically (temporary file in the same directory, then rename).
 pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(value)?;
-    crate::film::write_atomic(path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))
+    crate::film::io::write_bytes_atomic(path, text.as_bytes())?;
+    Ok(())
 }

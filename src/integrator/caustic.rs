@@ -105,12 +105,12 @@ impl<'a> CausticEstimator<'a> {
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
         map.tree().knn(si.p, self.knn, self.max_radius, |ph| ph.wi_world().dot(ng) * wo_side > 0.0, scratch);
-        let delta_area = (std::f32::consts::PI * scratch.radius2()).max(self.min_area);
+        let delta_area = (std::f32::consts::PI * scratch.r2()).max(self.min_area);
         let wo_local = si.frame.to_local(wo_world);
         let mut sum = Vec3::ZERO;
         let photons = map.tree().photons();
-        for &i in scratch.indices() {
-            let ph = &photons[i as usize];
+        for nb in scratch.neighbors() {
+            let ph = &photons[nb.index as usize];
             let wi_local = si.frame.to_local(ph.wi_world());
             let f = bsdf.f(wo_local, wi_local, TransportMode::Radiance);
             if f == Vec3::ZERO {
@@ -126,7 +126,7 @@ impl<'a> CausticEstimator<'a> {
             };
             sum += w1 * f * ph.power();
         }
-        Gather { l1: sum / delta_area, delta_area, photons: scratch.indices().len() as u32 }
+        Gather { l1: sum / delta_area, delta_area, photons: scratch.len() as u32 }
     }
 
     /// T2's weight for emission `le_lum` (luminance) reached from `origin` through ≥1 delta vertex.

@@ -2,7 +2,7 @@
 //! geometric normal `(p1 − p0) × (p2 − p0)` (Mitsuba's `area` emitter). Triangles are chosen ∝ area, then a
 //! point uniformly on the triangle, so the density over the light's surface is `pdf_a = 1/A`.
 
-use super::warp_local::{square_to_cosine_hemisphere, square_to_uniform_triangle};
+use crate::sampling::warp::{square_to_cosine_hemisphere, square_to_uniform_triangle};
 use super::{luminance, EmissionSample, LightSample};
 use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;

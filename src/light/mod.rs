@@ -12,7 +12,6 @@
 pub mod area;
 pub mod env;
 pub mod set;
-mod warp_local;
 
 #[cfg(test)]
 mod test_util;
@@ -28,13 +27,10 @@ pub use set::LightSet;
 use crate::math::{Frame, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::path::PathBuf;
-use warp_local::{square_to_uniform_disk_concentric, square_to_uniform_sphere, uniform_sphere_pdf_w};
+use crate::sampling::warp::{square_to_uniform_disk_concentric, square_to_uniform_sphere, uniform_sphere_pdf_w};
 
-/// Luminance Y of a linear RGB colour with Rec. 709 (sRGB) primaries: `0.2126 R + 0.7152 G + 0.0722 B`.
-#[must_use]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+/// Luminance Y (Rec. 709 weights), the one definition of the project.
+pub use crate::film::luminance;
 
 /// A direction toward a light chosen by `sample_li`, with what NEE needs to use it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -130,7 +130,7 @@ fn single_bright_pixel_is_sampled_in_its_neighbourhood() {
     );
     // The pdf is positive wherever eval is (so NEE alone misses nothing).
     for _ in 0..20_000 {
-        let d = crate::light::warp_local::square_to_uniform_sphere(s.next_2d());
+        let d = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
         if env.eval(d).max_element() > 0.0 {
             assert!(env.pdf_li(d) > 0.0, "eval > 0 but pdf 0 at {d}");
         }

@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::kdtree::KdTree;
+use super::kdtree::{KdTree, KdTreeError};
 use super::record::Photon;
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
@@ -96,8 +96,8 @@ struct Traced {
     capped: u64,
 }
 
-/// Emits `n` photons for pass `pass` and builds their kd-tree.
-pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: u64) -> (PhotonMap, PhotonPassStats) {
+/// Emits `n` photons for pass `pass` and builds their kd-tree (which fails only past 2³² stored photons).
+pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: u64) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
     let t0 = Instant::now();
     let powers = photon_light_powers(scene);
     let total_power: f32 = powers.iter().sum();
@@ -130,7 +130,7 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: 
     let seconds_trace = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let stored = photons.len() as u64;
-    let tree = KdTree::build(photons);
+    let tree = KdTree::build(photons)?;
     let stats = PhotonPassStats {
         emitted: n,
         stored,
@@ -140,7 +140,7 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: 
         seconds_trace,
         seconds_kdtree: t1.elapsed().as_secs_f64(),
     };
-    (PhotonMap { tree, emitted: n, total_power }, stats)
+    Ok((PhotonMap { tree, emitted: n, total_power }, stats))
 }
 
 #[allow(clippy::too_many_arguments)]
