@@ -1,0 +1,265 @@
+//! Stack traversal of the BVH4: a 4-wide slab test per node, nearest child first, and the shared
+//! watertight triangle test ([`crate::accel::triangle::RayPrecomp`]) in the leaves.
+//!
+//! The slab test (Kay & Kajiya 1986; Williams et al. 2005 for the inverse-direction form) is made
+//! conservative as in pbrt-v4 (`Bounds3::IntersectP`, §6.8.2): the far distance is scaled by
+//! `1 + 2γ(3)`, which bounds the rounding error of `(plane − o) · (1/d)`, so a ray that touches a
+//! box in exact arithmetic is never culled by rounding — a culled box would lose hits the brute-force
+//! oracle finds, most visibly on meshes whose faces lie on box planes. Direction components equal to
+//! ±0 give `1/d = ±∞`: the slab is then all or nothing, and the `0 · ∞ = NaN` of a ray lying in a
+//! slab plane is discarded by the comparisons (`max`/`min` written so that a NaN operand loses),
+//! which counts that slab as entered, the conservative answer.
+
+use super::wide::{Node4, Slot, WIDTH};
+use super::Bvh;
+use crate::accel::triangle::RayPrecomp;
+use crate::accel::Hit;
+use crate::math::{gamma, Ray};
+
+/// pbrt-v4's conservative factor for the far slab distance: `1 + 2γ(3)`.
+const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+/// Slack added to both ends of the ray interval in the box tests, in units of the largest depth
+/// (along the ray's dominant axis, in `t` units) of any vertex relative to the origin: the
+/// watertight test computes `t` from sheared vertex depths, with an absolute error of a few ulps
+/// of those depths (pbrt-v4 §6.8.4, the `δz` terms of its `δt` bound), so a triangle whose
+/// computed `t` equals `t_max` may lie, exactly, just beyond it — and in a box the ray enters
+/// just beyond `t_max`. 64 ulps; it costs nothing measurable.
+const DEPTH_SLACK: f32 = 64.0 * f32::EPSILON;
+/// Entries kept on the call stack; deeper traversals spill to the heap (never for SAH trees of
+/// practical size, whose BVH4 depth stays far below `INLINE_STACK / 3`).
+const INLINE_STACK: usize = 64;
+
+/// Per-ray constants of the slab test.
+struct BoxRay {
+    org: [f32; 3],
+    inv: [f32; 3],
+    /// 1 when the ray enters through the max plane along the axis (`1/d < 0`, including `d = −0`).
+    neg: [usize; 3],
+}
+
+impl BoxRay {
+    fn new(ray: &Ray) -> Self {
+        let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        Self { org: ray.origin.to_array(), inv, neg: inv.map(|i| usize::from(i < 0.0)) }
+    }
+}
+
+/// `max(a, b)` that returns `b` when `a` is NaN (maps to `maxps`).
+#[inline(always)]
+fn max_keep_b(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `min(a, b)` that returns `b` when `a` is NaN (maps to `minps`).
+#[inline(always)]
+fn min_keep_b(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Slab test of the four children of `node` against `[t_min, t_max]`: entry distances and the
+/// bit mask of the lanes whose box the ray touches.
+#[inline(always)]
+fn slab4(node: &Node4, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
+    let b = &node.bounds;
+    let (sx, sy, sz) = (r.neg[0] & 1, r.neg[1] & 1, r.neg[2] & 1);
+    let (nx, fx) = (&b[sx], &b[1 - sx]);
+    let (ny, fy) = (&b[2 + sy], &b[3 - sy]);
+    let (nz, fz) = (&b[4 + sz], &b[5 - sz]);
+    let mut t_near = [0.0f32; WIDTH];
+    let mut hit = [false; WIDTH];
+    for i in 0..WIDTH {
+        let x0 = (nx[i] - r.org[0]) * r.inv[0];
+        let y0 = (ny[i] - r.org[1]) * r.inv[1];
+        let z0 = (nz[i] - r.org[2]) * r.inv[2];
+        let x1 = (fx[i] - r.org[0]) * r.inv[0];
+        let y1 = (fy[i] - r.org[1]) * r.inv[1];
+        let z1 = (fz[i] - r.org[2]) * r.inv[2];
+        let near = max_keep_b(x0, max_keep_b(y0, max_keep_b(z0, t_min)));
+        let far = min_keep_b(x1, min_keep_b(y1, min_keep_b(z1, t_max))) * FAR_SCALE;
+        t_near[i] = near;
+        hit[i] = near <= far;
+    }
+    let mask = u32::from(hit[0]) | (u32::from(hit[1]) << 1) | (u32::from(hit[2]) << 2) | (u32::from(hit[3]) << 3);
+    (t_near, mask)
+}
+
+#[derive(Clone, Copy)]
+struct Entry {
+    slot: Slot,
+    t_near: f32,
+}
+
+/// The traversal stack: a fixed array with a heap spill for (pathologically) deep trees.
+struct Stack {
+    inline: [Entry; INLINE_STACK],
+    len: usize,
+    spill: Vec<Entry>,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { inline: [Entry { slot: Slot { index: 0, count: 0 }, t_near: 0.0 }; INLINE_STACK], len: 0, spill: Vec::new() }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        if self.len < INLINE_STACK {
+            self.inline[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.inline[self.len])
+    }
+}
+
+/// Sorts up to four `(t, lane)` pairs by `t` (insertion sort; `n ≤ 4`).
+#[inline(always)]
+fn sort_hits(h: &mut [(f32, usize); WIDTH], n: usize) {
+    for i in 1..n {
+        let mut j = i;
+        while j > 0 && h[j].0 < h[j - 1].0 {
+            h.swap(j, j - 1);
+            j -= 1;
+        }
+    }
+}
+
+impl Bvh {
+    /// The absolute slack on the ray interval ([`DEPTH_SLACK`] times the largest vertex depth
+    /// along the dominant axis, bounded by the scene box); 0 for degenerate (zero) directions.
+    #[inline(always)]
+    fn depth_slack(&self, pre: &RayPrecomp) -> f32 {
+        let k = pre.kz;
+        let depth = (self.bounds.min[k] - pre.origin[k]).abs().max((self.bounds.max[k] - pre.origin[k]).abs());
+        let slack = DEPTH_SLACK * depth * pre.sz.abs();
+        if slack.is_finite() {
+            slack
+        } else {
+            0.0
+        }
+    }
+
+    /// Closest hit in `[ray.t_min, ray.t_max]`. Ties in `t` resolve to the lowest triangle index,
+    /// as in the brute-force oracle, so the answer does not depend on the tree's layout.
+    pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        if self.prims.is_empty() {
+            return None;
+        }
+        let mut pre = RayPrecomp::new(ray);
+        let r = BoxRay::new(ray);
+        let slack = self.depth_slack(&pre);
+        let mut best = Hit { t: f32::INFINITY, prim: u32::MAX, u: 0.0, v: 0.0 };
+        let mut stack = Stack::new();
+        let mut cur = self.root;
+        loop {
+            if cur.count == 0 {
+                let node = &self.nodes[cur.index as usize];
+                let (t_near, mask) = slab4(node, &r, pre.t_min - slack, pre.t_max + slack);
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    if mask & (mask - 1) == 0 {
+                        cur = node.lane_slot(first);
+                        continue;
+                    }
+                    let mut hits = [(0.0f32, 0usize); WIDTH];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        hits[n] = (t_near[lane], lane);
+                        n += 1;
+                        m &= m - 1;
+                    }
+                    sort_hits(&mut hits, n);
+                    for &(t, lane) in hits[1..n].iter().rev() {
+                        stack.push(Entry { slot: node.lane_slot(lane), t_near: t });
+                    }
+                    cur = node.lane_slot(hits[0].1);
+                    continue;
+                }
+            } else {
+                let start = cur.index as usize;
+                let end = start + cur.count as usize;
+                for (tri, &prim) in self.tris[start..end].iter().zip(&self.prims[start..end]) {
+                    if let Some((t, u, v)) = pre.intersect(tri[0], tri[1], tri[2]) {
+                        // `t ≤ pre.t_max` here; equal `t` only replaces a higher index.
+                        if t < pre.t_max || prim < best.prim {
+                            best = Hit { t, prim, u, v };
+                            pre.t_max = t;
+                        }
+                    }
+                }
+            }
+            // Pop the next subtree the ray may still reach before the current closest hit.
+            loop {
+                let Some(e) = stack.pop() else {
+                    return (best.prim != u32::MAX).then_some(best);
+                };
+                if e.t_near <= (pre.t_max + slack) * FAR_SCALE {
+                    cur = e.slot;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether any triangle is hit in `[ray.t_min, ray.t_max]`.
+    pub(super) fn any_hit(&self, ray: &Ray) -> bool {
+        if self.prims.is_empty() {
+            return false;
+        }
+        let pre = RayPrecomp::new(ray);
+        let r = BoxRay::new(ray);
+        let slack = self.depth_slack(&pre);
+        let (t_min, t_max) = (pre.t_min - slack, pre.t_max + slack);
+        let mut stack = Stack::new();
+        let mut cur = self.root;
+        loop {
+            if cur.count == 0 {
+                let node = &self.nodes[cur.index as usize];
+                let (_, mask) = slab4(node, &r, t_min, t_max);
+                if mask != 0 {
+                    let mut m = mask & (mask - 1);
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        stack.push(Entry { slot: node.lane_slot(lane), t_near: 0.0 });
+                        m &= m - 1;
+                    }
+                    cur = node.lane_slot(mask.trailing_zeros() as usize);
+                    continue;
+                }
+            } else {
+                let start = cur.index as usize;
+                let end = start + cur.count as usize;
+                if self.tris[start..end].iter().any(|tri| pre.intersect(tri[0], tri[1], tri[2]).is_some()) {
+                    return true;
+                }
+            }
+            match stack.pop() {
+                Some(e) => cur = e.slot,
+                None => return false,
+            }
+        }
+    }
+}
