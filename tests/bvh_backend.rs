@@ -275,7 +275,7 @@ fn stats_are_consistent() {
     assert_eq!(st.triangles, mesh.triangle_count());
     assert!(st.nodes >= 1 && st.leaves >= st.triangles / caustica::accel::bvh::MAX_LEAF);
     assert!(st.max_depth >= 3 && st.max_depth < 40, "{st:?}");
-    assert!(st.memory_bytes >= st.triangles * 40 + st.nodes * 128, "{st:?}");
+    assert!(st.memory_bytes >= st.triangles * 40 + st.nodes * 64, "{st:?}");
 }
 
 /// Nanoseconds the calling thread has run on a CPU (`/proc/thread-self/schedstat`, field 1), so

@@ -10,6 +10,7 @@
 //! ```
 
 mod build;
+mod packet;
 mod traverse;
 mod validate;
 mod wide;
@@ -18,7 +19,8 @@ use glam::Vec3A;
 use rayon::prelude::*;
 
 use self::build::PrimRef;
-use self::wide::{Node4, Slot};
+use self::packet::Tri4;
+use self::wide::{Node, Slot};
 use super::{Accel, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 
@@ -29,28 +31,30 @@ pub use self::build::MAX_LEAF;
 pub struct BvhStats {
     /// Triangles indexed.
     pub triangles: usize,
-    /// Interior (4-wide) nodes.
+    /// Interior (wide) nodes.
     pub nodes: usize,
     /// Leaves.
     pub leaves: usize,
+    /// Triangle packets (four lanes each) holding the leaves' triangles.
+    pub packets: usize,
     /// Interior nodes on the longest root-to-leaf path (0 when the root is a leaf or the tree empty).
     pub max_depth: u32,
-    /// Bytes held by the nodes, the leaf-ordered triangles and their indices.
+    /// Bytes held by the nodes and the triangle packets.
     pub memory_bytes: usize,
 }
 
-/// A 4-wide bounding volume hierarchy over a triangle soup.
+/// A wide bounding volume hierarchy over a triangle soup.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     /// Interior nodes; `root` refers into this array (or is a leaf for tiny soups).
-    nodes: Vec<Node4>,
+    nodes: Vec<Node>,
     root: Slot,
     /// Box of every triangle.
     bounds: Aabb,
-    /// Triangle corners in leaf order.
-    tris: Vec<[Vec3; 3]>,
-    /// Input triangle index of each entry of `tris`.
-    prims: Vec<u32>,
+    /// Leaf triangles in packets of four, in leaf order.
+    packets: Vec<Tri4>,
+    /// Number of input triangles.
+    n_tris: usize,
     max_depth: u32,
 }
 
@@ -59,7 +63,8 @@ impl Bvh {
     /// must be in range). Uses the current rayon pool.
     #[must_use]
     pub fn build(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
-        let empty = Self { nodes: Vec::new(), root: Slot { index: 0, count: 0 }, bounds: Aabb::EMPTY, tris: Vec::new(), prims: Vec::new(), max_depth: 0 };
+        let empty =
+            Self { nodes: Vec::new(), root: Slot { index: 0, count: 0 }, bounds: Aabb::EMPTY, packets: Vec::new(), n_tris: 0, max_depth: 0 };
         if indices.is_empty() {
             return empty;
         }
@@ -72,31 +77,30 @@ impl Bvh {
                 PrimRef { min: a.min(b).min(c), max: a.max(b).max(c) }
             })
             .collect();
-        let mut prims: Vec<u32> = (0..indices.len() as u32).collect();
-        let tree = build::build(&mut refs, &mut prims);
+        let mut ids: Vec<u32> = (0..indices.len() as u32).collect();
+        let tree = build::build(&mut refs, &mut ids);
         let bounds = tree.bounds();
-        let wide = wide::collapse(&tree);
-        drop(tree);
-        let tris = prims.par_iter().with_min_len(4096).map(|&p| corners(&indices[p as usize])).collect();
-        Self { nodes: wide.nodes, root: wide.root, bounds, tris, prims, max_depth: wide.max_depth }
+        let tris: Vec<[Vec3; 3]> = ids.par_iter().with_min_len(4096).map(|&p| corners(&indices[p as usize])).collect();
+        let wide = wide::collapse(&tree, &tris, &ids);
+        Self { nodes: wide.nodes, root: wide.root, bounds, packets: wide.packets, n_tris: indices.len(), max_depth: wide.max_depth }
     }
 
     /// Node, leaf and memory figures.
     #[must_use]
     pub fn stats(&self) -> BvhStats {
-        let leaves = if self.prims.is_empty() {
+        let leaves = if self.n_tris == 0 {
             0
         } else {
-            usize::from(self.root.count > 0) + self.nodes.iter().map(|n| n.count.iter().filter(|&&c| c > 0).count()).sum::<usize>()
+            usize::from(self.root.count > 0)
+                + self.nodes.iter().map(|n| n.count.iter().filter(|&&c| c > 0 && c != wide::EMPTY_LANE).count()).sum::<usize>()
         };
         BvhStats {
-            triangles: self.prims.len(),
+            triangles: self.n_tris,
             nodes: self.nodes.len(),
             leaves,
+            packets: self.packets.len(),
             max_depth: self.max_depth,
-            memory_bytes: std::mem::size_of_val(self.nodes.as_slice())
-                + std::mem::size_of_val(self.tris.as_slice())
-                + std::mem::size_of_val(self.prims.as_slice()),
+            memory_bytes: std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.packets.as_slice()),
         }
     }
 }

@@ -10,7 +10,8 @@
 //! slab plane is discarded by the comparisons (`max`/`min` written so that a NaN operand loses),
 //! which counts that slab as entered, the conservative answer.
 
-use super::wide::{Node4, Slot, WIDTH};
+use super::packet::Tri4;
+use super::wide::{packets_for, Node, Slot, WIDTH};
 use super::Bvh;
 use crate::accel::triangle::RayPrecomp;
 use crate::accel::Hit;
@@ -26,7 +27,7 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 /// just beyond `t_max`. 64 ulps; it costs nothing measurable.
 const DEPTH_SLACK: f32 = 64.0 * f32::EPSILON;
 /// Entries kept on the call stack; deeper traversals spill to the heap (never for SAH trees of
-/// practical size, whose BVH4 depth stays far below `INLINE_STACK / 3`).
+/// practical size).
 const INLINE_STACK: usize = 64;
 
 /// Per-ray constants of the slab test.
@@ -64,10 +65,10 @@ fn min_keep_b(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Slab test of the four children of `node` against `[t_min, t_max]`: entry distances and the
-/// bit mask of the lanes whose box the ray touches.
+/// Slab test of the children of `node` against `[t_min, t_max]`: entry distances and the bit
+/// mask of the used lanes whose box the ray touches.
 #[inline(always)]
-fn slab4(node: &Node4, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
+fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
     let b = &node.bounds;
     let (sx, sy, sz) = (r.neg[0] & 1, r.neg[1] & 1, r.neg[2] & 1);
     let (nx, fx) = (&b[sx], &b[1 - sx]);
@@ -87,8 +88,11 @@ fn slab4(node: &Node4, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32
         t_near[i] = near;
         hit[i] = near <= far;
     }
-    let mask = u32::from(hit[0]) | (u32::from(hit[1]) << 1) | (u32::from(hit[2]) << 2) | (u32::from(hit[3]) << 3);
-    (t_near, mask)
+    let mut mask = 0u32;
+    for (i, &h) in hit.iter().enumerate() {
+        mask |= u32::from(h) << i;
+    }
+    (t_near, mask & u32::from(node.valid))
 }
 
 #[derive(Clone, Copy)]
@@ -133,18 +137,6 @@ impl Stack {
     }
 }
 
-/// Sorts up to four `(t, lane)` pairs by `t` (insertion sort; `n ≤ 4`).
-#[inline(always)]
-fn sort_hits(h: &mut [(f32, usize); WIDTH], n: usize) {
-    for i in 1..n {
-        let mut j = i;
-        while j > 0 && h[j].0 < h[j - 1].0 {
-            h.swap(j, j - 1);
-            j -= 1;
-        }
-    }
-}
-
 impl Bvh {
     /// The absolute slack on the ray interval ([`DEPTH_SLACK`] times the largest vertex depth
     /// along the dominant axis, bounded by the scene box); 0 for degenerate (zero) directions.
@@ -160,10 +152,17 @@ impl Bvh {
         }
     }
 
+    /// The packets of leaf `slot`.
+    #[inline(always)]
+    fn leaf_packets(&self, slot: Slot) -> &[Tri4] {
+        let start = slot.index as usize;
+        &self.packets[start..start + packets_for(slot.count)]
+    }
+
     /// Closest hit in `[ray.t_min, ray.t_max]`. Ties in `t` resolve to the lowest triangle index,
-    /// as in the brute-force oracle, so the answer does not depend on the tree's layout.
+    /// as in the brute-force oracle.
     pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        if self.prims.is_empty() {
+        if self.packets.is_empty() {
             return None;
         }
         let mut pre = RayPrecomp::new(ray);
@@ -175,23 +174,30 @@ impl Bvh {
         loop {
             if cur.count == 0 {
                 let node = &self.nodes[cur.index as usize];
-                let (t_near, mask) = slab4(node, &r, pre.t_min - slack, pre.t_max + slack);
+                let (t_near, mask) = slab(node, &r, pre.t_min - slack, pre.t_max + slack);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
                         cur = node.lane_slot(first);
                         continue;
                     }
+                    // Several children: visit the nearest next, push the others far to near.
                     let mut hits = [(0.0f32, 0usize); WIDTH];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
-                        hits[n] = (t_near[lane], lane);
-                        n += 1;
                         m &= m - 1;
+                        // Insertion by entry distance.
+                        let t = t_near[lane];
+                        let mut j = n;
+                        while j > 0 && hits[j - 1].0 > t {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = (t, lane);
+                        n += 1;
                     }
-                    sort_hits(&mut hits, n);
                     for &(t, lane) in hits[1..n].iter().rev() {
                         stack.push(Entry { slot: node.lane_slot(lane), t_near: t });
                     }
@@ -199,13 +205,16 @@ impl Bvh {
                     continue;
                 }
             } else {
-                let start = cur.index as usize;
-                let end = start + cur.count as usize;
-                for (tri, &prim) in self.tris[start..end].iter().zip(&self.prims[start..end]) {
-                    if let Some((t, u, v)) = pre.intersect(tri[0], tri[1], tri[2]) {
-                        // `t ≤ pre.t_max` here; equal `t` only replaces a higher index.
-                        if t < pre.t_max || prim < best.prim {
-                            best = Hit { t, prim, u, v };
+                for packet in self.leaf_packets(cur) {
+                    let (mut m, t, u, v) = packet.intersect(&pre);
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let (t, prim) = (t[lane], packet.prim[lane]);
+                        // Equal `t` only replaces a higher index; `t` may exceed a `t_max`
+                        // lowered by an earlier lane of the same packet.
+                        if t < pre.t_max || (t == pre.t_max && prim < best.prim) {
+                            best = Hit { t, prim, u: u[lane], v: v[lane] };
                             pre.t_max = t;
                         }
                     }
@@ -226,7 +235,7 @@ impl Bvh {
 
     /// Whether any triangle is hit in `[ray.t_min, ray.t_max]`.
     pub(super) fn any_hit(&self, ray: &Ray) -> bool {
-        if self.prims.is_empty() {
+        if self.packets.is_empty() {
             return false;
         }
         let pre = RayPrecomp::new(ray);
@@ -238,7 +247,7 @@ impl Bvh {
         loop {
             if cur.count == 0 {
                 let node = &self.nodes[cur.index as usize];
-                let (_, mask) = slab4(node, &r, t_min, t_max);
+                let (_, mask) = slab(node, &r, t_min, t_max);
                 if mask != 0 {
                     let mut m = mask & (mask - 1);
                     while m != 0 {
@@ -249,12 +258,8 @@ impl Bvh {
                     cur = node.lane_slot(mask.trailing_zeros() as usize);
                     continue;
                 }
-            } else {
-                let start = cur.index as usize;
-                let end = start + cur.count as usize;
-                if self.tris[start..end].iter().any(|tri| pre.intersect(tri[0], tri[1], tri[2]).is_some()) {
-                    return true;
-                }
+            } else if self.leaf_packets(cur).iter().any(|p| p.intersect(&pre).0 != 0) {
+                return true;
             }
             match stack.pop() {
                 Some(e) => cur = e.slot,

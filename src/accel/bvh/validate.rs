@@ -1,101 +1,120 @@
 //! Structural invariants of a built [`Bvh`], checked exhaustively (tests call this after every build).
 
 use super::build::MAX_LEAF;
-use super::wide::{Slot, EMPTY_CHILD, WIDTH};
+use super::packet::{LANES, NO_PRIM};
+use super::wide::{packets_for, Slot, EMPTY_LANE, WIDTH};
 use super::Bvh;
 use crate::math::Aabb;
 
 impl Bvh {
     /// Checks every invariant: node indices in range and every node reached exactly once from the
-    /// root (a tree, no orphans); used lanes first, unused lanes empty; no interior node with fewer
-    /// than two children; leaves hold `1..=MAX_LEAF` triangles; leaf ranges cover the leaf-ordered
-    /// triangles exactly once and `prims` is a permutation of the input triangle indices; every
-    /// child box contains its child's boxes or its triangles' corners; no NaN in any box; the
-    /// recorded depth is the real one.
+    /// root (a tree, no orphans); used lanes first, `valid` matching them, unused lanes empty; no
+    /// interior node with fewer than two children; leaves hold `1..=MAX_LEAF` triangles in their
+    /// own packets (every packet in exactly one leaf, lanes packed, unused lanes `NO_PRIM`);
+    /// every input triangle appears in exactly one lane; every child box contains its subtree's
+    /// triangles; the recorded depth and scene box are the real ones.
     pub fn validate(&self) -> Result<(), String> {
-        let n = self.prims.len();
-        if self.tris.len() != n {
-            return Err(format!("{} triangles but {} prim indices", self.tris.len(), n));
+        if self.n_tris == 0 {
+            return if self.nodes.is_empty() && self.packets.is_empty() { Ok(()) } else { Err("empty BVH with nodes or packets".into()) };
         }
-        let mut seen_prim = vec![false; n];
-        for (i, &p) in self.prims.iter().enumerate() {
-            let p = p as usize;
-            if p >= n || std::mem::replace(&mut seen_prim[p], true) {
-                return Err(format!("prims[{i}] = {p} is out of range or repeated"));
-            }
+        let mut st = Walk { prim_seen: vec![false; self.n_tris], packet_seen: vec![false; self.packets.len()], node_seen: vec![false; self.nodes.len()], max_depth: 0 };
+        let bounds = self.check_slot(self.root, 0, &mut st)?;
+        if bounds != self.bounds {
+            return Err(format!("recorded scene box {:?} but the triangles span {bounds:?}", self.bounds));
         }
-        if n == 0 {
-            return if self.nodes.is_empty() { Ok(()) } else { Err("empty BVH with nodes".into()) };
-        }
-        let mut covered = vec![false; n];
-        let mut node_seen = vec![false; self.nodes.len()];
-        let mut max_depth = 0u32;
-        // (slot, box the parent stores for it, depth of the node holding that box)
-        let mut todo: Vec<(Slot, Option<Aabb>, u32)> = vec![(self.root, None, 0)];
-        while let Some((slot, parent_box, depth)) = todo.pop() {
-            if slot.count > 0 {
-                self.check_leaf(slot, parent_box, &mut covered)?;
-                continue;
-            }
-            let i = slot.index as usize;
-            if i >= self.nodes.len() {
-                return Err(format!("node index {i} out of range ({} nodes)", self.nodes.len()));
-            }
-            if std::mem::replace(&mut node_seen[i], true) {
-                return Err(format!("node {i} is reached twice"));
-            }
-            max_depth = max_depth.max(depth + 1);
-            let node = &self.nodes[i];
-            let used = (0..WIDTH).take_while(|&l| node.lane_used(l)).count();
-            if used < 2 {
-                return Err(format!("node {i} has {used} children"));
-            }
-            for lane in 0..WIDTH {
-                let b = node.lane_bounds(lane);
-                if b.min.is_nan() || b.max.is_nan() {
-                    return Err(format!("node {i} lane {lane} has a NaN box"));
-                }
-                if lane >= used {
-                    if node.lane_used(lane) || node.count[lane] != 0 || b != Aabb::EMPTY {
-                        return Err(format!("node {i}: unused lane {lane} is not empty (lanes must be packed)"));
-                    }
-                    continue;
-                }
-                if let Some(pb) = parent_box {
-                    if !(pb.contains(b.min) && pb.contains(b.max)) {
-                        return Err(format!("node {i} lane {lane} box {b:?} escapes its parent's box {pb:?}"));
-                    }
-                }
-                todo.push((node.lane_slot(lane), Some(b), depth + 1));
-            }
-        }
-        if let Some(i) = node_seen.iter().position(|&s| !s) {
+        if let Some(i) = st.node_seen.iter().position(|&s| !s) {
             return Err(format!("node {i} is not reachable from the root"));
         }
-        if let Some(i) = covered.iter().position(|&c| !c) {
-            return Err(format!("leaf-order triangle {i} (prim {}) is in no leaf", self.prims[i]));
+        if let Some(i) = st.packet_seen.iter().position(|&s| !s) {
+            return Err(format!("packet {i} is in no leaf"));
         }
-        if max_depth != self.max_depth {
-            return Err(format!("recorded depth {} but the tree is {max_depth} deep", self.max_depth));
+        if let Some(p) = st.prim_seen.iter().position(|&s| !s) {
+            return Err(format!("triangle {p} is in no leaf"));
+        }
+        if st.max_depth != self.max_depth {
+            return Err(format!("recorded depth {} but the tree is {} deep", self.max_depth, st.max_depth));
         }
         Ok(())
     }
 
-    fn check_leaf(&self, slot: Slot, parent_box: Option<Aabb>, covered: &mut [bool]) -> Result<(), String> {
-        let (start, count) = (slot.index as usize, slot.count as usize);
-        if slot.index == EMPTY_CHILD || count > MAX_LEAF || start + count > self.tris.len() {
-            return Err(format!("leaf [{start}, +{count}) is invalid (max {MAX_LEAF}, {} triangles)", self.tris.len()));
+    /// Checks the subtree at `slot` (whose parent is at `depth`) and returns the exact box of its
+    /// triangles. Recursion depth is bounded by the tree depth.
+    fn check_slot(&self, slot: Slot, depth: u32, st: &mut Walk) -> Result<Aabb, String> {
+        if slot.count > 0 {
+            return self.check_leaf(slot, st);
         }
-        for k in start..start + count {
-            if std::mem::replace(&mut covered[k], true) {
-                return Err(format!("leaf-order triangle {k} is in two leaves"));
+        let i = slot.index as usize;
+        if i >= self.nodes.len() {
+            return Err(format!("node index {i} out of range ({} nodes)", self.nodes.len()));
+        }
+        if std::mem::replace(&mut st.node_seen[i], true) {
+            return Err(format!("node {i} is reached twice"));
+        }
+        st.max_depth = st.max_depth.max(depth + 1);
+        let node = &self.nodes[i];
+        let used = (0..WIDTH).take_while(|&l| node.count[l] != EMPTY_LANE).count();
+        if used < 2 {
+            return Err(format!("node {i} has {used} children"));
+        }
+        if u32::from(node.valid) != (1 << used) - 1 || node.count[used..].iter().any(|&c| c != EMPTY_LANE) {
+            return Err(format!("node {i}: lanes not packed or valid mask {:#010b} wrong for {used} lanes", node.valid));
+        }
+        let mut total = Aabb::EMPTY;
+        for lane in 0..WIDTH {
+            let b = node.lane_bounds(lane);
+            if b.min.is_nan() || b.max.is_nan() {
+                return Err(format!("node {i} lane {lane} has a NaN box"));
             }
-            if let Some(pb) = parent_box {
-                if !self.tris[k].iter().all(|&p| pb.contains(p)) {
-                    return Err(format!("triangle {} {:?} escapes its leaf box {pb:?}", self.prims[k], self.tris[k]));
+            if lane >= used {
+                if b != Aabb::EMPTY {
+                    return Err(format!("node {i}: unused lane {lane} has a box"));
                 }
+                continue;
+            }
+            let exact = self.check_slot(node.lane_slot(lane), depth + 1, st)?;
+            if !(b.contains(exact.min) && b.contains(exact.max)) {
+                return Err(format!("node {i} lane {lane}: box {b:?} does not contain its subtree {exact:?}"));
+            }
+            total = total.union(exact);
+        }
+        Ok(total)
+    }
+
+    fn check_leaf(&self, slot: Slot, st: &mut Walk) -> Result<Aabb, String> {
+        let (first, count) = (slot.index as usize, slot.count as usize);
+        let n_packets = packets_for(slot.count);
+        if count > MAX_LEAF || first + n_packets > self.packets.len() {
+            return Err(format!("leaf at packet {first} with {count} triangles is invalid (max {MAX_LEAF}, {} packets)", self.packets.len()));
+        }
+        let mut b = Aabb::EMPTY;
+        for k in 0..n_packets {
+            if std::mem::replace(&mut st.packet_seen[first + k], true) {
+                return Err(format!("packet {} is in two leaves", first + k));
+            }
+            let packet = &self.packets[first + k];
+            let lanes_used = (count - k * LANES).min(LANES);
+            for lane in 0..LANES {
+                let prim = packet.prim[lane];
+                if lane >= lanes_used {
+                    if prim != NO_PRIM || !packet.corners(lane).iter().all(|c| c.is_nan()) {
+                        return Err(format!("packet {} lane {lane} should be unused", first + k));
+                    }
+                    continue;
+                }
+                if prim as usize >= self.n_tris || std::mem::replace(&mut st.prim_seen[prim as usize], true) {
+                    return Err(format!("triangle {prim} is out of range or in two lanes"));
+                }
+                b = packet.corners(lane).iter().fold(b, |b, &p| b.grow(p));
             }
         }
-        Ok(())
+        Ok(b)
     }
+}
+
+/// What the validation walk accumulates.
+struct Walk {
+    prim_seen: Vec<bool>,
+    packet_seen: Vec<bool>,
+    node_seen: Vec<bool>,
+    max_depth: u32,
 }
