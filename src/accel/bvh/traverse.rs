@@ -15,7 +15,7 @@ use super::wide::{packets_for, Node, Slot, WIDTH};
 use super::Bvh;
 use crate::accel::triangle::RayPrecomp;
 use crate::accel::Hit;
-use crate::math::{gamma, Ray};
+use crate::math::{gamma, Ray, Vec4};
 
 /// pbrt-v4's conservative factor for the far slab distance: `1 + 2γ(3)`.
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
@@ -75,7 +75,7 @@ fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) 
     let (ny, fy) = (&b[2 + sy], &b[3 - sy]);
     let (nz, fz) = (&b[4 + sz], &b[5 - sz]);
     let mut t_near = [0.0f32; WIDTH];
-    let mut hit = [false; WIDTH];
+    let mut t_far = [0.0f32; WIDTH];
     for i in 0..WIDTH {
         let x0 = (nx[i] - r.org[0]) * r.inv[0];
         let y0 = (ny[i] - r.org[1]) * r.inv[1];
@@ -83,16 +83,26 @@ fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) 
         let x1 = (fx[i] - r.org[0]) * r.inv[0];
         let y1 = (fy[i] - r.org[1]) * r.inv[1];
         let z1 = (fz[i] - r.org[2]) * r.inv[2];
-        let near = max_keep_b(x0, max_keep_b(y0, max_keep_b(z0, t_min)));
-        let far = min_keep_b(x1, min_keep_b(y1, min_keep_b(z1, t_max))) * FAR_SCALE;
-        t_near[i] = near;
-        hit[i] = near <= far;
+        t_near[i] = max_keep_b(x0, max_keep_b(y0, max_keep_b(z0, t_min)));
+        t_far[i] = min_keep_b(x1, min_keep_b(y1, min_keep_b(z1, t_max))) * FAR_SCALE;
     }
+    // `near <= far` per lane, as a bit mask (glam's compare + movemask; NaN compares false).
     let mut mask = 0u32;
-    for (i, &h) in hit.iter().enumerate() {
-        mask |= u32::from(h) << i;
+    for (k, (n4, f4)) in t_near.chunks_exact(4).zip(t_far.chunks_exact(4)).enumerate() {
+        mask |= Vec4::from_slice(n4).cmple(Vec4::from_slice(f4)).bitmask() << (4 * k);
     }
     (t_near, mask & u32::from(node.valid))
+}
+
+/// The bits of `t` as a `u32` whose unsigned order is the float order (for sort keys).
+#[inline(always)]
+fn ordered_bits(t: f32) -> u32 {
+    let b = t.to_bits();
+    if b & 0x8000_0000 != 0 {
+        !b
+    } else {
+        b | 0x8000_0000
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -182,26 +192,36 @@ impl Bvh {
                         continue;
                     }
                     // Several children: visit the nearest next, push the others far to near.
-                    let mut hits = [(0.0f32, 0usize); WIDTH];
+                    let rest = mask & (mask - 1);
+                    if rest & (rest - 1) == 0 {
+                        // Exactly two (the common case).
+                        let (a, b) = (first, rest.trailing_zeros() as usize);
+                        let (near, far) = if t_near[b] < t_near[a] { (b, a) } else { (a, b) };
+                        stack.push(Entry { slot: node.lane_slot(far), t_near: t_near[far] });
+                        cur = node.lane_slot(near);
+                        continue;
+                    }
+                    // Sort keys `(order-preserving bits of t) << 32 | lane` (insertion sort, ≤ 8).
+                    let mut keys = [0u64; WIDTH];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
-                        let lane = m.trailing_zeros() as usize;
+                        let lane = m.trailing_zeros();
                         m &= m - 1;
-                        // Insertion by entry distance.
-                        let t = t_near[lane];
+                        let key = (u64::from(ordered_bits(t_near[lane as usize])) << 32) | u64::from(lane);
                         let mut j = n;
-                        while j > 0 && hits[j - 1].0 > t {
-                            hits[j] = hits[j - 1];
+                        while j > 0 && keys[j - 1] > key {
+                            keys[j] = keys[j - 1];
                             j -= 1;
                         }
-                        hits[j] = (t, lane);
+                        keys[j] = key;
                         n += 1;
                     }
-                    for &(t, lane) in hits[1..n].iter().rev() {
-                        stack.push(Entry { slot: node.lane_slot(lane), t_near: t });
+                    for &key in keys[1..n].iter().rev() {
+                        let lane = (key & 0xff) as usize;
+                        stack.push(Entry { slot: node.lane_slot(lane), t_near: t_near[lane] });
                     }
-                    cur = node.lane_slot(hits[0].1);
+                    cur = node.lane_slot((keys[0] & 0xff) as usize);
                     continue;
                 }
             } else {
