@@ -7,10 +7,10 @@
 //! `(t, u, v)` and the hit/miss decision agree bit for bit. The one branchy part of the scalar test,
 //! the double-precision recomputation when a scaled barycentric is exactly zero (paper §4), is
 //! delegated lane by lane to the scalar test itself. Unused lanes hold NaN corners and the
-//! `prim` [`NO_PRIM`]; they are masked out explicitly as well.
+//! `prim` [`NO_PRIM`], and the caller masks them out ([`lanes_used`]).
 
 use crate::accel::triangle::RayPrecomp;
-use crate::math::Vec3;
+use crate::math::{Vec3, Vec4};
 
 /// Triangles per packet.
 pub(super) const LANES: usize = 4;
@@ -49,7 +49,7 @@ impl Tri4 {
     }
 
     /// Lanes holding a triangle (bit mask).
-    #[inline(always)]
+    #[cfg(test)]
     #[must_use]
     pub fn used_mask(&self) -> u32 {
         let mut m = 0u32;
@@ -59,55 +59,44 @@ impl Tri4 {
         m
     }
 
-    /// The watertight test on all four lanes against `pre` (its `t_min`, `t_max`): the bit mask of
-    /// the hit lanes and their `(t, u, v)` (meaningful for hit lanes only).
+    /// The watertight test on the lanes in `used` against `pre` (its `t_min`, `t_max`): the bit
+    /// mask of the hit lanes and their `(t, u, v)` (meaningful for hit lanes only).
     #[inline(always)]
     #[must_use]
-    pub fn intersect(&self, pre: &RayPrecomp) -> (u32, [f32; LANES], [f32; LANES], [f32; LANES]) {
+    pub fn intersect(&self, pre: &RayPrecomp, used: u32) -> (u32, [f32; LANES], [f32; LANES], [f32; LANES]) {
         let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
         let o = pre.origin;
-        let (ox, oy, oz) = (o[kx], o[ky], o[kz]);
         let [p0, p1, p2] = &self.v;
-        // Rows in ray-permuted order (a pointer choice per row; the lanes are then straight SIMD).
-        let (p0x, p0y, p0z) = (&p0[kx], &p0[ky], &p0[kz]);
-        let (p1x, p1y, p1z) = (&p1[kx], &p1[ky], &p1[kz]);
-        let (p2x, p2y, p2z) = (&p2[kx], &p2[ky], &p2[kz]);
-        let (mut t, mut u, mut v) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-        let mut hit = [false; LANES];
-        let mut redo = [false; LANES];
-        for i in 0..LANES {
-            // Same operations as `RayPrecomp::intersect`: a = p0 − o, then shear (paper §3).
-            let (a_x, a_y, a_z) = (p0x[i] - ox, p0y[i] - oy, p0z[i] - oz);
-            let (b_x, b_y, b_z) = (p1x[i] - ox, p1y[i] - oy, p1z[i] - oz);
-            let (c_x, c_y, c_z) = (p2x[i] - ox, p2y[i] - oy, p2z[i] - oz);
-            let ax = a_x - pre.sx * a_z;
-            let ay = a_y - pre.sy * a_z;
-            let bx = b_x - pre.sx * b_z;
-            let by = b_y - pre.sy * b_z;
-            let cx = c_x - pre.sx * c_z;
-            let cy = c_y - pre.sy * c_z;
-            let u_s = cx * by - cy * bx;
-            let v_s = ax * cy - ay * cx;
-            let w_s = bx * ay - by * ax;
-            // Non-short-circuit `|`/`&` keep the lanes branch-free (and vectorised).
-            redo[i] = (u_s == 0.0) | (v_s == 0.0) | (w_s == 0.0);
-            let outside = ((u_s < 0.0) | (v_s < 0.0) | (w_s < 0.0)) & ((u_s > 0.0) | (v_s > 0.0) | (w_s > 0.0));
-            let det = u_s + v_s + w_s;
-            let t_scaled = u_s * (pre.sz * a_z) + v_s * (pre.sz * b_z) + w_s * (pre.sz * c_z);
-            let inv_det = 1.0 / det;
-            t[i] = t_scaled * inv_det;
-            u[i] = v_s * inv_det;
-            v[i] = w_s * inv_det;
-            hit[i] = !outside & (det != 0.0) & (t[i] >= pre.t_min) & (t[i] <= pre.t_max);
-        }
-        let mut mask = 0u32;
-        for i in 0..LANES {
-            mask |= u32::from(hit[i]) << i;
-        }
-        let redo_mask = (0..LANES).fold(0u32, |m, i| m | (u32::from(redo[i]) << i)) & self.used_mask();
-        if redo_mask != 0 {
+        // Rows in ray-permuted order (a pointer choice per row), then four lanes at once.
+        let row = |r: &[f32; LANES]| Vec4::from_array(*r);
+        let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
+        let (sx, sy, sz) = (Vec4::splat(pre.sx), Vec4::splat(pre.sy), Vec4::splat(pre.sz));
+        // Same operations as `RayPrecomp::intersect`: a = p0 − o, then shear (paper §3).
+        let (a_x, a_y, a_z) = (row(&p0[kx]) - ox, row(&p0[ky]) - oy, row(&p0[kz]) - oz);
+        let (b_x, b_y, b_z) = (row(&p1[kx]) - ox, row(&p1[ky]) - oy, row(&p1[kz]) - oz);
+        let (c_x, c_y, c_z) = (row(&p2[kx]) - ox, row(&p2[ky]) - oy, row(&p2[kz]) - oz);
+        let ax = a_x - sx * a_z;
+        let ay = a_y - sy * a_z;
+        let bx = b_x - sx * b_z;
+        let by = b_y - sy * b_z;
+        let cx = c_x - sx * c_z;
+        let cy = c_y - sy * c_z;
+        let u_s = cx * by - cy * bx;
+        let v_s = ax * cy - ay * cx;
+        let w_s = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        let redo = (u_s.cmpeq(zero) | v_s.cmpeq(zero) | w_s.cmpeq(zero)).bitmask() & used;
+        let outside = (u_s.cmplt(zero) | v_s.cmplt(zero) | w_s.cmplt(zero)) & (u_s.cmpgt(zero) | v_s.cmpgt(zero) | w_s.cmpgt(zero));
+        let det = u_s + v_s + w_s;
+        let t_scaled = u_s * (sz * a_z) + v_s * (sz * b_z) + w_s * (sz * c_z);
+        let inv_det = Vec4::ONE / det;
+        let t = t_scaled * inv_det;
+        let hit = !outside & det.cmpne(zero) & t.cmpge(Vec4::splat(pre.t_min)) & t.cmple(Vec4::splat(pre.t_max));
+        let mut mask = hit.bitmask() & used;
+        let (mut t, mut u, mut v) = (t.to_array(), (v_s * inv_det).to_array(), (w_s * inv_det).to_array());
+        if redo != 0 {
             // A scaled barycentric is exactly zero: the scalar test's f64 path decides.
-            let mut m = redo_mask;
+            let mut m = redo;
             while m != 0 {
                 let i = m.trailing_zeros() as usize;
                 m &= m - 1;
@@ -121,7 +110,19 @@ impl Tri4 {
                 }
             }
         }
-        (mask & self.used_mask(), t, u, v)
+        (mask, t, u, v)
+    }
+}
+
+/// The used-lane mask of packet `k` of a leaf with `count` triangles.
+#[inline(always)]
+#[must_use]
+pub(super) fn lanes_used(count: u32, k: usize) -> u32 {
+    let left = count as usize - k * LANES;
+    if left >= LANES {
+        (1 << LANES) - 1
+    } else {
+        (1 << left) - 1
     }
 }
 
@@ -172,7 +173,7 @@ mod tests {
             }
             let pre = RayPrecomp::new(&ray);
             let packet = Tri4::pack(&tris);
-            let (mask, t, u, v) = packet.intersect(&pre);
+            let (mask, t, u, v) = packet.intersect(&pre, packet.used_mask());
             for (lane, (corners, _)) in tris.iter().enumerate() {
                 let scalar = pre.intersect(corners[0], corners[1], corners[2]);
                 let packed = (mask & (1 << lane) != 0).then(|| (t[lane], u[lane], v[lane]));

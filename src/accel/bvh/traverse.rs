@@ -10,7 +10,7 @@
 //! slab plane is discarded by the comparisons (`max`/`min` written so that a NaN operand loses),
 //! which counts that slab as entered, the conservative answer.
 
-use super::packet::Tri4;
+use super::packet::{lanes_used, Tri4};
 use super::wide::{packets_for, Node, Slot, WIDTH};
 use super::Bvh;
 use crate::accel::triangle::RayPrecomp;
@@ -225,8 +225,8 @@ impl Bvh {
                     continue;
                 }
             } else {
-                for packet in self.leaf_packets(cur) {
-                    let (mut m, t, u, v) = packet.intersect(&pre);
+                for (k, packet) in self.leaf_packets(cur).iter().enumerate() {
+                    let (mut m, t, u, v) = packet.intersect(&pre, lanes_used(cur.count, k));
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
                         m &= m - 1;
@@ -278,7 +278,7 @@ impl Bvh {
                     cur = node.lane_slot(mask.trailing_zeros() as usize);
                     continue;
                 }
-            } else if self.leaf_packets(cur).iter().any(|p| p.intersect(&pre).0 != 0) {
+            } else if self.leaf_packets(cur).iter().enumerate().any(|(k, p)| p.intersect(&pre, lanes_used(cur.count, k)).0 != 0) {
                 return true;
             }
             match stack.pop() {
