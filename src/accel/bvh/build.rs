@@ -23,7 +23,7 @@ pub const MAX_LEAF: usize = 8;
 /// SAH cost of one node traversal relative to the test of one packet of [`PACKET`] triangles
 /// (which costs the same whether 1 or 4 of its lanes are used, so leaf costs count packets, as
 /// Embree's builders count blocks).
-const TRAVERSAL_COST: f32 = 1.0;
+const TRAVERSAL_COST: f32 = 2.0;
 /// Triangles tested together in a leaf.
 const PACKET: f32 = 4.0;
 
