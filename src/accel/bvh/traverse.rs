@@ -147,6 +147,45 @@ impl Stack {
     }
 }
 
+/// For the children in `mask` (non-empty) with entry distances `t_near`: pushes all but the
+/// nearest, far to near, and returns the nearest.
+#[inline(always)]
+fn descend(node: &Node, t_near: &[f32; WIDTH], mask: u32, stack: &mut Stack) -> Slot {
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return node.lane_slot(first);
+    }
+    if rest & (rest - 1) == 0 {
+        // Exactly two (the common case).
+        let (a, b) = (first, rest.trailing_zeros() as usize);
+        let (near, far) = if t_near[b] < t_near[a] { (b, a) } else { (a, b) };
+        stack.push(Entry { slot: node.lane_slot(far), t_near: t_near[far] });
+        return node.lane_slot(near);
+    }
+    // Sort keys `(order-preserving bits of t) << 32 | lane` (insertion sort, ≤ 8).
+    let mut keys = [0u64; WIDTH];
+    let mut n = 0;
+    let mut m = mask;
+    while m != 0 {
+        let lane = m.trailing_zeros();
+        m &= m - 1;
+        let key = (u64::from(ordered_bits(t_near[lane as usize])) << 32) | u64::from(lane);
+        let mut j = n;
+        while j > 0 && keys[j - 1] > key {
+            keys[j] = keys[j - 1];
+            j -= 1;
+        }
+        keys[j] = key;
+        n += 1;
+    }
+    for &key in keys[1..n].iter().rev() {
+        let lane = (key & 0xff) as usize;
+        stack.push(Entry { slot: node.lane_slot(lane), t_near: t_near[lane] });
+    }
+    node.lane_slot((keys[0] & 0xff) as usize)
+}
+
 impl Bvh {
     /// The absolute slack on the ray interval ([`DEPTH_SLACK`] times the largest vertex depth
     /// along the dominant axis, bounded by the scene box); 0 for degenerate (zero) directions.
@@ -186,42 +225,7 @@ impl Bvh {
                 let node = &self.nodes[cur.index as usize];
                 let (t_near, mask) = slab(node, &r, pre.t_min - slack, pre.t_max + slack);
                 if mask != 0 {
-                    let first = mask.trailing_zeros() as usize;
-                    if mask & (mask - 1) == 0 {
-                        cur = node.lane_slot(first);
-                        continue;
-                    }
-                    // Several children: visit the nearest next, push the others far to near.
-                    let rest = mask & (mask - 1);
-                    if rest & (rest - 1) == 0 {
-                        // Exactly two (the common case).
-                        let (a, b) = (first, rest.trailing_zeros() as usize);
-                        let (near, far) = if t_near[b] < t_near[a] { (b, a) } else { (a, b) };
-                        stack.push(Entry { slot: node.lane_slot(far), t_near: t_near[far] });
-                        cur = node.lane_slot(near);
-                        continue;
-                    }
-                    // Sort keys `(order-preserving bits of t) << 32 | lane` (insertion sort, ≤ 8).
-                    let mut keys = [0u64; WIDTH];
-                    let mut n = 0;
-                    let mut m = mask;
-                    while m != 0 {
-                        let lane = m.trailing_zeros();
-                        m &= m - 1;
-                        let key = (u64::from(ordered_bits(t_near[lane as usize])) << 32) | u64::from(lane);
-                        let mut j = n;
-                        while j > 0 && keys[j - 1] > key {
-                            keys[j] = keys[j - 1];
-                            j -= 1;
-                        }
-                        keys[j] = key;
-                        n += 1;
-                    }
-                    for &key in keys[1..n].iter().rev() {
-                        let lane = (key & 0xff) as usize;
-                        stack.push(Entry { slot: node.lane_slot(lane), t_near: t_near[lane] });
-                    }
-                    cur = node.lane_slot((keys[0] & 0xff) as usize);
+                    cur = descend(node, &t_near, mask, &mut stack);
                     continue;
                 }
             } else {
@@ -269,6 +273,7 @@ impl Bvh {
                 let node = &self.nodes[cur.index as usize];
                 let (_, mask) = slab(node, &r, t_min, t_max);
                 if mask != 0 {
+                    // Any order will do (sorting by distance measured slower for shadow rays).
                     let mut m = mask & (mask - 1);
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
