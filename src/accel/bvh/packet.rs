@@ -88,10 +88,15 @@ impl Tri4 {
         let redo = (u_s.cmpeq(zero) | v_s.cmpeq(zero) | w_s.cmpeq(zero)).bitmask() & used;
         let outside = (u_s.cmplt(zero) | v_s.cmplt(zero) | w_s.cmplt(zero)) & (u_s.cmpgt(zero) | v_s.cmpgt(zero) | w_s.cmpgt(zero));
         let det = u_s + v_s + w_s;
+        let inside = !outside & det.cmpne(zero);
+        if (inside.bitmask() | redo) & used == 0 {
+            // The common case in a leaf: the ray passes beside every triangle.
+            return (0, [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        }
         let t_scaled = u_s * (sz * a_z) + v_s * (sz * b_z) + w_s * (sz * c_z);
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
-        let hit = !outside & det.cmpne(zero) & t.cmpge(Vec4::splat(pre.t_min)) & t.cmple(Vec4::splat(pre.t_max));
+        let hit = inside & t.cmpge(Vec4::splat(pre.t_min)) & t.cmple(Vec4::splat(pre.t_max));
         let mut mask = hit.bitmask() & used;
         let (mut t, mut u, mut v) = (t.to_array(), (v_s * inv_det).to_array(), (w_s * inv_det).to_array());
         if redo != 0 {
