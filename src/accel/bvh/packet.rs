@@ -17,6 +17,30 @@ pub(super) const LANES: usize = 4;
 /// `prim` of an unused lane.
 pub(super) const NO_PRIM: u32 = u32::MAX;
 
+/// The per-ray constants of [`RayPrecomp`] in the form the packet test wants: the axis
+/// permutation as row indices and the origin (permuted), shear and `t_min` splatted.
+pub(super) struct PacketRay {
+    k: [usize; 3],
+    origin: [Vec4; 3],
+    shear: [Vec4; 3],
+    t_min: Vec4,
+}
+
+impl PacketRay {
+    #[must_use]
+    pub fn new(pre: &RayPrecomp) -> Self {
+        // `min(2)` only tells the compiler the indices are in range (`RayPrecomp` keeps them so).
+        let k = [pre.kx, pre.ky, pre.kz].map(|i| i.min(2));
+        let o = pre.origin.to_array();
+        Self {
+            k,
+            origin: k.map(|i| Vec4::splat(o[i])),
+            shear: [pre.sx, pre.sy, pre.sz].map(Vec4::splat),
+            t_min: Vec4::splat(pre.t_min),
+        }
+    }
+}
+
 /// Four triangles: `v[corner][axis][lane]`, and their input indices.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
@@ -59,18 +83,18 @@ impl Tri4 {
         m
     }
 
-    /// The watertight test on the lanes in `used` against `pre` (its `t_min`, `t_max`): the bit
-    /// mask of the hit lanes and their `(t, u, v)` (meaningful for hit lanes only).
+    /// The watertight test on the lanes in `used` against `pre` (its `t_min`, `t_max`; `ray` holds
+    /// the same constants splatted): the bit mask of the hit lanes and their `(t, u, v)`
+    /// (meaningful for hit lanes only).
     #[inline(always)]
     #[must_use]
-    pub fn intersect(&self, pre: &RayPrecomp, used: u32) -> (u32, [f32; LANES], [f32; LANES], [f32; LANES]) {
-        let (kx, ky, kz) = (pre.kx, pre.ky, pre.kz);
-        let o = pre.origin;
+    pub fn intersect(&self, ray: &PacketRay, pre: &RayPrecomp, used: u32) -> (u32, [f32; LANES], [f32; LANES], [f32; LANES]) {
+        let [kx, ky, kz] = ray.k;
         let [p0, p1, p2] = &self.v;
         // Rows in ray-permuted order (a pointer choice per row), then four lanes at once.
         let row = |r: &[f32; LANES]| Vec4::from_array(*r);
-        let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
-        let (sx, sy, sz) = (Vec4::splat(pre.sx), Vec4::splat(pre.sy), Vec4::splat(pre.sz));
+        let [ox, oy, oz] = ray.origin;
+        let [sx, sy, sz] = ray.shear;
         // Same operations as `RayPrecomp::intersect`: a = p0 − o, then shear (paper §3).
         let (a_x, a_y, a_z) = (row(&p0[kx]) - ox, row(&p0[ky]) - oy, row(&p0[kz]) - oz);
         let (b_x, b_y, b_z) = (row(&p1[kx]) - ox, row(&p1[ky]) - oy, row(&p1[kz]) - oz);
@@ -96,7 +120,7 @@ impl Tri4 {
         let t_scaled = u_s * (sz * a_z) + v_s * (sz * b_z) + w_s * (sz * c_z);
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
-        let hit = inside & t.cmpge(Vec4::splat(pre.t_min)) & t.cmple(Vec4::splat(pre.t_max));
+        let hit = inside & t.cmpge(ray.t_min) & t.cmple(Vec4::splat(pre.t_max));
         let mut mask = hit.bitmask() & used;
         let (mut t, mut u, mut v) = (t.to_array(), (v_s * inv_det).to_array(), (w_s * inv_det).to_array());
         if redo != 0 {
@@ -178,7 +202,7 @@ mod tests {
             }
             let pre = RayPrecomp::new(&ray);
             let packet = Tri4::pack(&tris);
-            let (mask, t, u, v) = packet.intersect(&pre, packet.used_mask());
+            let (mask, t, u, v) = packet.intersect(&PacketRay::new(&pre), &pre, packet.used_mask());
             for (lane, (corners, _)) in tris.iter().enumerate() {
                 let scalar = pre.intersect(corners[0], corners[1], corners[2]);
                 let packed = (mask & (1 << lane) != 0).then(|| (t[lane], u[lane], v[lane]));

@@ -10,7 +10,7 @@
 //! slab plane is discarded by the comparisons (`max`/`min` written so that a NaN operand loses),
 //! which counts that slab as entered, the conservative answer.
 
-use super::packet::{lanes_used, Tri4};
+use super::packet::{lanes_used, PacketRay, Tri4};
 use super::wide::{packets_for, Node, Slot, WIDTH};
 use super::Bvh;
 use crate::accel::triangle::RayPrecomp;
@@ -215,6 +215,7 @@ impl Bvh {
             return None;
         }
         let mut pre = RayPrecomp::new(ray);
+        let pr = PacketRay::new(&pre);
         let r = BoxRay::new(ray);
         let slack = self.depth_slack(&pre);
         let mut best = Hit { t: f32::INFINITY, prim: u32::MAX, u: 0.0, v: 0.0 };
@@ -230,7 +231,7 @@ impl Bvh {
                 }
             } else {
                 for (k, packet) in self.leaf_packets(cur).iter().enumerate() {
-                    let (mut m, t, u, v) = packet.intersect(&pre, lanes_used(cur.count, k));
+                    let (mut m, t, u, v) = packet.intersect(&pr, &pre, lanes_used(cur.count, k));
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
                         m &= m - 1;
@@ -263,6 +264,7 @@ impl Bvh {
             return false;
         }
         let pre = RayPrecomp::new(ray);
+        let pr = PacketRay::new(&pre);
         let r = BoxRay::new(ray);
         let slack = self.depth_slack(&pre);
         let (t_min, t_max) = (pre.t_min - slack, pre.t_max + slack);
@@ -283,7 +285,7 @@ impl Bvh {
                     cur = node.lane_slot(mask.trailing_zeros() as usize);
                     continue;
                 }
-            } else if self.leaf_packets(cur).iter().enumerate().any(|(k, p)| p.intersect(&pre, lanes_used(cur.count, k)).0 != 0) {
+            } else if self.leaf_packets(cur).iter().enumerate().any(|(k, p)| p.intersect(&pr, &pre, lanes_used(cur.count, k)).0 != 0) {
                 return true;
             }
             match stack.pop() {
