@@ -3,13 +3,13 @@
 //!
 //! The builder sees only primitive boxes ([`PrimRef`]); it reorders them in place so that every leaf
 //! owns a contiguous range, and returns a pointer tree ([`BuildNode`]) that [`super::wide`] collapses
-//! into the flattened 4-wide node array. Degenerate input is handled explicitly:
+//! into the flattened wide node array. Degenerate input is handled explicitly:
 //! all centroids equal (no axis to bin along) → leaf if small enough, otherwise an index-median split;
 //! no split with two non-empty sides (float corner cases) or recursion deeper than [`MAX_SAH_DEPTH`]
 //! → object-median split along the widest centroid axis, which bounds the depth by
-//! `MAX_SAH_DEPTH + log2(n)`. SAH costs are evaluated in f32 with empty boxes counted as area 0; areas that
-//! overflow (coordinates beyond ~1e19) make every split infinitely expensive and fall back to
-//! the median split, never to NaN.
+//! `MAX_SAH_DEPTH + log2(n)`. SAH costs are evaluated in f32 with empty boxes counted as area 0;
+//! areas that overflow (coordinates beyond ~1e19) make every split infinitely expensive and fall
+//! back to the median split, never to NaN.
 
 use glam::Vec3A;
 use rayon::prelude::*;
@@ -80,20 +80,32 @@ struct Box3 {
 }
 
 impl Box3 {
-    const EMPTY: Box3 = Box3 { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+    const EMPTY: Box3 = Box3 {
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
+    };
 
     #[inline]
     fn union(self, o: Box3) -> Box3 {
-        Box3 { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Box3 {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     #[inline]
     fn grow(self, p: Vec3A) -> Box3 {
-        Box3 { min: self.min.min(p), max: self.max.max(p) }
+        Box3 {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     fn to_aabb(self) -> Aabb {
-        Aabb { min: self.min.into(), max: self.max.into() }
+        Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
     }
 
     /// Half the surface area (0 for the empty box).
@@ -124,7 +136,9 @@ fn centroid_bounds_of(refs: &[PrimRef]) -> Box3 {
 
 /// Box and centroid box of `refs`.
 fn bounds_of(refs: &[PrimRef]) -> (Box3, Box3) {
-    refs.iter().fold((Box3::EMPTY, Box3::EMPTY), |(b, c), r| (b.union(Box3 { min: r.min, max: r.max }), c.grow(r.centroid2())))
+    refs.iter().fold((Box3::EMPTY, Box3::EMPTY), |(b, c), r| {
+        (b.union(Box3 { min: r.min, max: r.max }), c.grow(r.centroid2()))
+    })
 }
 
 /// Per axis and bin: the box of the primitives and their number. Only the first `n_bins` bins of
@@ -138,7 +152,11 @@ struct Bins {
 
 impl Bins {
     fn new(n_bins: usize) -> Self {
-        Self { n_bins, bounds: [[Box3::EMPTY; BINS]; 3], count: [[0; BINS]; 3] }
+        Self {
+            n_bins,
+            bounds: [[Box3::EMPTY; BINS]; 3],
+            count: [[0; BINS]; 3],
+        }
     }
 
     /// Empties the first `n_bins` bins of every axis (reusing the scratch space of a parent node).
@@ -153,11 +171,11 @@ impl Bins {
     fn add(&mut self, refs: &[PrimRef], map: &BinMap) {
         for r in refs {
             let idx = map.bins(r.centroid2());
-            for axis in 0..3 {
-                let b = &mut self.bounds[axis][idx[axis]];
+            for ((bounds, count), &bin) in self.bounds.iter_mut().zip(&mut self.count).zip(&idx) {
+                let b = &mut bounds[bin];
                 b.min = b.min.min(r.min);
                 b.max = b.max.max(r.max);
-                self.count[axis][idx[axis]] += 1;
+                count[bin] += 1;
             }
         }
     }
@@ -194,7 +212,11 @@ impl BinMap {
                 *s = n_bins as f32 * (1.0 - 1e-5) / extent[a];
             }
         }
-        Self { origin: cbounds.min, scale: Vec3A::from_array(scale), n_bins }
+        Self {
+            origin: cbounds.min,
+            scale: Vec3A::from_array(scale),
+            n_bins,
+        }
     }
 
     /// Bin indices along the three axes: `round((c2 − origin)·scale − ½)`, at most the last bin.
@@ -282,8 +304,12 @@ fn best_split(bins: &Bins, map: &BinMap, node_half_area: f32) -> Option<Split> {
     let mut best: Option<Split> = None;
     for axis in 0..3 {
         let cost = best_cost[axis];
-        if cost < f32::INFINITY && best.is_none_or(|s| cost < s.cost) {
-            best = Some(Split { axis, bin: best_bin[axis] as usize, cost });
+        if cost < f32::INFINITY && best.map_or(true, |s| cost < s.cost) {
+            best = Some(Split {
+                axis,
+                bin: best_bin[axis] as usize,
+                cost,
+            });
         }
     }
     best
@@ -335,7 +361,11 @@ fn median_split(refs: &mut [PrimRef], ids: &mut [u32], cbounds: &Box3) -> usize 
 
 fn build_node(refs: &mut [PrimRef], ids: &mut [u32], offset: usize, depth: u32, bounds: Box3, cbounds: Box3, bins: &mut Bins) -> BuildNode {
     let n = refs.len();
-    let leaf = || BuildNode::Leaf { bounds: bounds.to_aabb(), start: offset as u32, count: n as u32 };
+    let leaf = || BuildNode::Leaf {
+        bounds: bounds.to_aabb(),
+        start: offset as u32,
+        count: n as u32,
+    };
     if n == 1 {
         return leaf();
     }
@@ -356,7 +386,10 @@ fn build_node(refs: &mut [PrimRef], ids: &mut [u32], offset: usize, depth: u32, 
                 b.add(c, &map);
                 b
             };
-            *bins = refs.par_chunks(PARALLEL_BIN_CHUNK).map(binned).reduce(|| Bins::new(map.n_bins), Bins::merge);
+            *bins = refs
+                .par_chunks(PARALLEL_BIN_CHUNK)
+                .map(binned)
+                .reduce(|| Bins::new(map.n_bins), Bins::merge);
         } else {
             bins.reset(map.n_bins);
             bins.add(refs, &map);
@@ -396,7 +429,10 @@ fn build_node(refs: &mut [PrimRef], ids: &mut [u32], offset: usize, depth: u32, 
         let l = build_node(left, left_ids, offset, depth + 1, lb, lc, bins);
         (l, build_node(right, right_ids, offset + mid, depth + 1, rb, rc, bins))
     };
-    BuildNode::Interior { bounds: bounds.to_aabb(), children: Box::new([l, r]) }
+    BuildNode::Interior {
+        bounds: bounds.to_aabb(),
+        children: Box::new([l, r]),
+    }
 }
 
 #[cfg(test)]
@@ -405,7 +441,13 @@ mod tests {
     use crate::math::Vec3;
 
     fn refs_from_points(points: &[Vec3]) -> (Vec<PrimRef>, Vec<u32>) {
-        let refs = points.iter().map(|&p| PrimRef { min: p.into(), max: Vec3A::from(p) + Vec3A::splat(0.01) }).collect();
+        let refs = points
+            .iter()
+            .map(|&p| PrimRef {
+                min: p.into(),
+                max: Vec3A::from(p) + Vec3A::splat(0.01),
+            })
+            .collect();
         (refs, (0..points.len() as u32).collect())
     }
 
@@ -431,7 +473,10 @@ mod tests {
 
     #[test]
     fn bin_mapping_is_monotone_and_covers_all_bins() {
-        let cb = Box3 { min: Vec3A::splat(-3.0), max: Vec3A::new(5.0, -3.0, 1e-3) };
+        let cb = Box3 {
+            min: Vec3A::splat(-3.0),
+            max: Vec3A::new(5.0, -3.0, 1e-3),
+        };
         let map = BinMap::new(&cb, BINS);
         assert_eq!(map.scale.y, 0.0, "no extent along y");
         let mut last = 0;
@@ -456,7 +501,10 @@ mod tests {
         let mid = partition(&mut refs, &mut ids, |r| r.min.x < 10.0);
         assert_eq!(mid, 10);
         assert!(refs[..mid].iter().all(|r| r.min.x < 10.0) && refs[mid..].iter().all(|r| r.min.x >= 10.0));
-        assert!(refs.iter().zip(&ids).all(|(r, &id)| r.min.x == ((id * 7) % 37) as f32), "ids move with their boxes");
+        assert!(
+            refs.iter().zip(&ids).all(|(r, &id)| r.min.x == ((id * 7) % 37) as f32),
+            "ids move with their boxes"
+        );
     }
 
     #[test]
@@ -464,7 +512,7 @@ mod tests {
         // A line of points with exponentially growing spacing stresses the SAH (and the depth cap);
         // a block of identical points stresses the equal-centroid fallback.
         let mut pts: Vec<Vec3> = (0..3000).map(|i| Vec3::new(1.01f32.powi(i), 0.0, 0.0)).collect();
-        pts.extend(std::iter::repeat_n(Vec3::splat(-5.0), 100));
+        pts.extend(std::iter::repeat(Vec3::splat(-5.0)).take(100));
         let (mut refs, mut ids) = refs_from_points(&pts);
         let root = build(&mut refs, &mut ids);
         let mut seen = vec![0u32; pts.len()];

@@ -54,7 +54,10 @@ impl Tri4 {
     #[must_use]
     pub fn pack(tris: &[([Vec3; 3], u32)]) -> Self {
         debug_assert!(!tris.is_empty() && tris.len() <= LANES);
-        let mut p = Tri4 { v: [[[f32::NAN; LANES]; 3]; 3], prim: [NO_PRIM; LANES] };
+        let mut p = Tri4 {
+            v: [[[f32::NAN; LANES]; 3]; 3],
+            prim: [NO_PRIM; LANES],
+        };
         for (lane, (corners, prim)) in tris.iter().enumerate() {
             for (c, corner) in corners.iter().enumerate() {
                 for axis in 0..3 {
@@ -175,8 +178,9 @@ mod tests {
             let mut s = Sampler::for_key(41, k, 0);
             let scale = [1e-3, 1.0, 1e4][k as usize % 3];
             let offset = if k % 5 == 0 { Vec3::splat(1e6) } else { Vec3::ZERO };
-            let mut tris: Vec<([Vec3; 3], u32)> =
-                (0..1 + k as usize % LANES).map(|i| ([0, 1, 2].map(|_| offset + random_vec(&mut s, scale)), i as u32 * 7)).collect();
+            let mut tris: Vec<([Vec3; 3], u32)> = (0..1 + k as usize % LANES)
+                .map(|i| ([0, 1, 2].map(|_| offset + random_vec(&mut s, scale)), i as u32 * 7))
+                .collect();
             if k % 4 == 1 && tris.len() >= 2 {
                 // Two triangles sharing an edge, and a vertex.
                 tris[1].0[0] = tris[0].0[1];

@@ -15,9 +15,18 @@ impl Bvh {
     /// triangles; the recorded depth and scene box are the real ones.
     pub fn validate(&self) -> Result<(), String> {
         if self.n_tris == 0 {
-            return if self.nodes.is_empty() && self.packets.is_empty() { Ok(()) } else { Err("empty BVH with nodes or packets".into()) };
+            return if self.nodes.is_empty() && self.packets.is_empty() {
+                Ok(())
+            } else {
+                Err("empty BVH with nodes or packets".into())
+            };
         }
-        let mut st = Walk { prim_seen: vec![false; self.n_tris], packet_seen: vec![false; self.packets.len()], node_seen: vec![false; self.nodes.len()], max_depth: 0 };
+        let mut st = Walk {
+            prim_seen: vec![false; self.n_tris],
+            packet_seen: vec![false; self.packets.len()],
+            node_seen: vec![false; self.nodes.len()],
+            max_depth: 0,
+        };
         let bounds = self.check_slot(self.root, 0, &mut st)?;
         if bounds != self.bounds {
             return Err(format!("recorded scene box {:?} but the triangles span {bounds:?}", self.bounds));
@@ -57,7 +66,10 @@ impl Bvh {
             return Err(format!("node {i} has {used} children"));
         }
         if u32::from(node.valid) != (1 << used) - 1 || node.count[used..].iter().any(|&c| c != EMPTY_LANE) {
-            return Err(format!("node {i}: lanes not packed or valid mask {:#010b} wrong for {used} lanes", node.valid));
+            return Err(format!(
+                "node {i}: lanes not packed or valid mask {:#010b} wrong for {used} lanes",
+                node.valid
+            ));
         }
         let mut total = Aabb::EMPTY;
         for lane in 0..WIDTH {
@@ -84,7 +96,10 @@ impl Bvh {
         let (first, count) = (slot.index as usize, slot.count as usize);
         let n_packets = packets_for(slot.count);
         if count > MAX_LEAF || first + n_packets > self.packets.len() {
-            return Err(format!("leaf at packet {first} with {count} triangles is invalid (max {MAX_LEAF}, {} packets)", self.packets.len()));
+            return Err(format!(
+                "leaf at packet {first} with {count} triangles is invalid (max {MAX_LEAF}, {} packets)",
+                self.packets.len()
+            ));
         }
         let mut b = Aabb::EMPTY;
         for k in 0..n_packets {
@@ -117,4 +132,71 @@ struct Walk {
     packet_seen: Vec<bool>,
     node_seen: Vec<bool>,
     max_depth: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::mesh::shapes::sphere;
+
+    /// `validate` accepts a real build and rejects each kind of corruption.
+    #[test]
+    fn validate_detects_corruption() {
+        let mesh = sphere(Vec3::ZERO, 1.0, 20, 30);
+        let good = Bvh::build(&mesh.positions, &mesh.indices);
+        good.validate().expect("a real build is valid");
+        let root = good.root.index as usize;
+        let leaf_lane = |b: &Bvh| {
+            b.nodes
+                .iter()
+                .enumerate()
+                .find_map(|(i, n)| (0..WIDTH).find(|&l| n.count[l] > 0 && n.count[l] != EMPTY_LANE).map(|l| (i, l)))
+        };
+        type Corruption = Box<dyn Fn(&mut Bvh)>;
+        let corruptions: Vec<(&str, Corruption)> = vec![
+            ("shrunk child box", Box::new(move |b| b.nodes[root].bounds[1][0] -= 0.25)),
+            (
+                "child index out of range",
+                Box::new(move |b| b.nodes[root].child[0] = u32::MAX >> 1),
+            ),
+            ("lane mask", Box::new(move |b| b.nodes[root].valid &= !1)),
+            ("depth", Box::new(|b| b.max_depth += 1)),
+            ("scene box", Box::new(|b| b.bounds.max.x += 1.0)),
+            (
+                "leaf too large",
+                Box::new(move |b| {
+                    let (i, l) = leaf_lane(b).expect("a leaf");
+                    b.nodes[i].count[l] = MAX_LEAF as u8 + 1;
+                }),
+            ),
+            (
+                "triangle twice",
+                Box::new(|b| {
+                    let p = b
+                        .packets
+                        .iter()
+                        .position(|p| p.prim[1] != NO_PRIM)
+                        .expect("a packet with two triangles");
+                    b.packets[p].prim[1] = b.packets[p].prim[0];
+                }),
+            ),
+            (
+                "unused lane filled",
+                Box::new(|b| {
+                    let p = b
+                        .packets
+                        .iter()
+                        .position(|p| p.prim[LANES - 1] == NO_PRIM)
+                        .expect("a packet with a free lane");
+                    b.packets[p].prim[LANES - 1] = 0;
+                }),
+            ),
+        ];
+        for (what, corrupt) in corruptions {
+            let mut bad = good.clone();
+            corrupt(&mut bad);
+            assert!(bad.validate().is_err(), "{what} went unnoticed");
+        }
+    }
 }

@@ -61,14 +61,20 @@ impl Node {
     #[must_use]
     pub fn lane_bounds(&self, lane: usize) -> Aabb {
         let b = &self.bounds;
-        Aabb { min: Vec3::new(b[0][lane], b[2][lane], b[4][lane]), max: Vec3::new(b[1][lane], b[3][lane], b[5][lane]) }
+        Aabb {
+            min: Vec3::new(b[0][lane], b[2][lane], b[4][lane]),
+            max: Vec3::new(b[1][lane], b[3][lane], b[5][lane]),
+        }
     }
 
     /// The child in lane `lane`.
     #[inline(always)]
     #[must_use]
     pub fn lane_slot(&self, lane: usize) -> Slot {
-        Slot { index: self.child[lane], count: u32::from(self.count[lane]) }
+        Slot {
+            index: self.child[lane],
+            count: u32::from(self.count[lane]),
+        }
     }
 
     fn set_lane(&mut self, lane: usize, bounds: Aabb, slot: Slot) {
@@ -105,7 +111,12 @@ pub(super) struct WideTree {
 /// and `ids[i]` its input index.
 #[must_use]
 pub(super) fn collapse(root: &BuildNode, tris: &[[Vec3; 3]], ids: &[u32]) -> WideTree {
-    let mut out = WideTree { nodes: Vec::new(), root: Slot { index: 0, count: 0 }, packets: Vec::with_capacity(tris.len() / 2), max_depth: 0 };
+    let mut out = WideTree {
+        nodes: Vec::new(),
+        root: Slot { index: 0, count: 0 },
+        packets: Vec::with_capacity(tris.len() / 2),
+        max_depth: 0,
+    };
     out.root = collapse_node(root, &mut out, tris, ids, 1);
     out
 }
@@ -117,7 +128,10 @@ fn collapse_node(node: &BuildNode, out: &mut WideTree, tris: &[[Vec3; 3]], ids: 
             let (start, end) = (*start as usize, (*start + *count) as usize);
             let lane_data: Vec<([Vec3; 3], u32)> = (start..end).map(|i| (tris[i], ids[i])).collect();
             out.packets.extend(lane_data.chunks(LANES).map(Tri4::pack));
-            return Slot { index: first, count: *count };
+            return Slot {
+                index: first,
+                count: *count,
+            };
         }
         BuildNode::Interior { children, .. } => children,
     };
@@ -135,7 +149,9 @@ fn collapse_node(node: &BuildNode, out: &mut WideTree, tris: &[[Vec3; 3]], ids: 
             .max_by(|(_, a), (_, b)| a.bounds().surface_area().total_cmp(&b.bounds().surface_area()))
             .map(|(i, _)| i);
         let Some(i) = widest else { break };
-        let BuildNode::Interior { children: grand, .. } = kids[i] else { break };
+        let BuildNode::Interior { children: grand, .. } = kids[i] else {
+            break;
+        };
         kids[i] = &grand[1];
         kids.insert(i, &grand[0]);
     }
@@ -143,7 +159,10 @@ fn collapse_node(node: &BuildNode, out: &mut WideTree, tris: &[[Vec3; 3]], ids: 
         let slot = collapse_node(kid, out, tris, ids, depth + 1);
         out.nodes[index].set_lane(lane, kid.bounds(), slot);
     }
-    Slot { index: index as u32, count: 0 }
+    Slot {
+        index: index as u32,
+        count: 0,
+    }
 }
 
 #[cfg(test)]
