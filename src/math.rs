@@ -192,6 +192,22 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     po
 }
 
+/// The near end of a spawned ray's interval: `4·max(p_error) / |dir|`.
+///
+/// The origin offset keeps the origin on the right side of the surface's plane, but the triangle test's
+/// own rounding error in `t` grows with the size of the triangle's coordinates, so a ray leaving a large
+/// triangle can still report it at `t ≈ 0` (seen on a 20-unit floor). Hits closer than a few times the
+/// hit point's error bound are ignored — the same scale-aware bound, so nothing global is assumed.
+#[must_use]
+pub fn spawn_t_min(p_error: Vec3, dir: Vec3) -> f32 {
+    let len = dir.length();
+    if len > 0.0 {
+        4.0 * p_error.max_element() / len
+    } else {
+        0.0
+    }
+}
+
 /// Smallest f32 greater than `v` (∞ stays ∞; −0 is treated as +0).
 #[must_use]
 pub fn next_float_up(v: f32) -> f32 {

@@ -4,7 +4,7 @@
 
 use super::Scene;
 use crate::accel::Hit;
-use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Ray, Vec2, Vec3};
+use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
 /// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
 /// target lies on does not occlude it.
@@ -37,7 +37,7 @@ impl SurfaceInteraction {
     /// A ray leaving the surface in direction `dir`, its origin offset to the side `dir` points into.
     #[must_use]
     pub fn spawn_ray(&self, dir: Vec3) -> Ray {
-        Ray::new(offset_ray_origin(self.p, self.p_error, self.ng, dir), dir)
+        Ray::segment(offset_ray_origin(self.p, self.p_error, self.ng, dir), dir, spawn_t_min(self.p_error, dir), f32::INFINITY)
     }
 
     /// A shadow ray towards `p_target`: `dir = p_target − origin` (not normalised), `t ∈ [0, 1 − ε]` with
@@ -45,7 +45,8 @@ impl SurfaceInteraction {
     #[must_use]
     pub fn spawn_ray_to(&self, p_target: Vec3) -> Ray {
         let origin = offset_ray_origin(self.p, self.p_error, self.ng, p_target - self.p);
-        Ray::segment(origin, p_target - origin, 0.0, 1.0 - SHADOW_EPSILON)
+        let dir = p_target - origin;
+        Ray::segment(origin, dir, spawn_t_min(self.p_error, dir), 1.0 - SHADOW_EPSILON)
     }
 }
 
