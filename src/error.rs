@@ -5,8 +5,8 @@ use std::path::PathBuf;
 /// Errors from loading a mesh file.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: cannot read: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     #[error("{path}: unsupported mesh format (expected .obj, .ply or .ply.gz)")]

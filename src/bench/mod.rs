@@ -147,18 +147,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 }
 
 /// Loads one benchmark input as a single triangle soup, with the name shown in the report.
-/// Mesh files only for now; scene files (`.toml`) become a branch here once a scene loader exists.
+/// Mesh files (.obj, .ply, .ply.gz) and scene files (.toml: every shape of the scene, flattened).
 pub fn load_input(path: &Path) -> anyhow::Result<(String, TriangleMesh)> {
     let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if is_scene {
-        anyhow::bail!(
-            "{}: this build has no scene loader; pass a mesh file (.obj, .ply, .ply.gz)",
-            path.display()
-        );
-    }
-    // MeshError's message already names the file and includes its cause: keep it as one message so
-    // `{:#}` does not print the cause twice.
-    let mesh = load_mesh(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mesh = if is_scene { crate::scene::Scene::load(path)?.mesh } else { load_mesh(path)? };
     Ok((path.display().to_string(), mesh))
 }
 

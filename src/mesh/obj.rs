@@ -15,9 +15,9 @@ use crate::math::{Vec2, Vec3};
 
 /// Reads an OBJ file into one triangle mesh (not yet validated; [`super::load_mesh`] validates).
 pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|source| MeshError::Io {
+    let file = File::open(path).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     read_obj(&mut BufReader::new(file), path)
 }

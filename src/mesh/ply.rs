@@ -27,18 +27,18 @@ use crate::math::{Vec2, Vec3};
 
 /// Reads a PLY file (ASCII or binary).
 pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|source| MeshError::Io {
+    let file = File::open(path).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     read_ply(BufReader::new(file), path)
 }
 
 /// Reads a gzip-compressed PLY file (`.ply.gz`).
 pub fn load_ply_gz(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|source| MeshError::Io {
+    let file = File::open(path).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     read_ply(BufReader::new(GzDecoder::new(BufReader::new(file))), path)
 }
