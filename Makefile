@@ -20,7 +20,7 @@ demo: build
 test: setup
 	$(CARGO) test --release
 	$(CARGO) build --release --no-default-features
-	scripts/test-embree4
+	EMBREE4_TARGET_DIR=$(CURDIR)/target scripts/test-embree4
 
 dragon:
 	scripts/fetch-dragon
