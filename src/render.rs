@@ -19,7 +19,7 @@ use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
 use crate::integrator::{CausticEstimator, PathStats, PathTracer};
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{trace_photons, KdTreeError, PhotonMap, PhotonPassStats};
+use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
 use crate::scene::{Estimator, Scene};
 
@@ -36,8 +36,8 @@ pub struct RenderSettings {
     pub time_limit: Option<f64>,
     pub seed: u64,
     pub estimator: Estimator,
-    /// Photons emitted per photon pass (`N` of method.md §2).
-    pub photons: u64,
+    /// Photons per photon pass: emitted (`N` of method.md §2), or a stored target.
+    pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
 }

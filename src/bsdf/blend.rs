@@ -38,6 +38,24 @@ pub(super) fn f(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec3, m
     sum
 }
 
+/// `(f, pdf_w)` of the mixture in one pass over the components (same sums as [`f`] and [`pdf_w`]).
+#[must_use]
+pub(super) fn f_pdf(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+    let w = clamp_weight(weight);
+    let (mut f, mut pdf) = (Vec3::ZERO, 0.0);
+    if w < 1.0 {
+        let (f0, p0) = bsdf_0.f_pdf(wo, wi, mode);
+        f += (1.0 - w) * f0;
+        pdf += (1.0 - w) * p0;
+    }
+    if w > 0.0 {
+        let (f1, p1) = bsdf_1.f_pdf(wo, wi, mode);
+        f += w * f1;
+        pdf += w * p1;
+    }
+    (f, pdf)
+}
+
 #[must_use]
 pub(super) fn pdf_w(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
     let w = clamp_weight(weight);

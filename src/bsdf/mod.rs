@@ -124,6 +124,26 @@ impl Bsdf {
         }
     }
 
+    /// `(f, pdf_w)` in one evaluation, bit-identical to `(self.f(..), self.pdf_w(..))` but sharing the
+    /// work of both (GGX half vector, `D`, `G1(wo)`): for loops that need both, such as the MIS-weighted
+    /// density estimate and NEE.
+    #[must_use]
+    pub fn f_pdf(&self, wo_local: Vec3, wi_local: Vec3, mode: TransportMode) -> (Vec3, f32) {
+        if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        match self {
+            Bsdf::Diffuse { reflectance } => (diffuse::f(*reflectance, wo_local, wi_local), diffuse::pdf_w(wo_local, wi_local)),
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => (Vec3::ZERO, 0.0),
+            Bsdf::RoughConductor {
+                alpha,
+                specular_reflectance,
+                eta_k,
+            } => roughconductor::f_pdf(*alpha, *specular_reflectance, *eta_k, wo_local, wi_local),
+            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f_pdf(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
+        }
+    }
+
     /// Solid-angle density of sampling `wi_local` through the non-delta lobes (the mixture as sampled).
     #[must_use]
     pub fn pdf_w(&self, wo_local: Vec3, wi_local: Vec3) -> f32 {

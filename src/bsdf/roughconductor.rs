@@ -84,6 +84,28 @@ pub(super) fn f(alpha: f32, specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec
     specular_reflectance * fresnel * (0.25 * ggx_d(alpha, h) * g)
 }
 
+/// `(f, pdf_w)` in one evaluation: the half vector, `D(h)` and `G1(wo)` are shared (the density-estimation
+/// loop needs both for every photon). Bit-identical to `(f(..), pdf_w(..))` (tested).
+#[must_use]
+pub(super) fn f_pdf(alpha: f32, specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    let Some((wo, wi)) = to_upper(wo, wi) else {
+        return (Vec3::ZERO, 0.0);
+    };
+    let alpha = clamp_alpha(alpha);
+    let Some(h) = (wo + wi).try_normalize() else {
+        return (Vec3::ZERO, 0.0);
+    };
+    let d = ggx_d(alpha, h);
+    let g1o = smith_g1_over_cos(alpha, wo, h);
+    let pdf = 0.25 * d * g1o;
+    let g = g1o * smith_g1_over_cos(alpha, wi, h);
+    if g == 0.0 {
+        return (Vec3::ZERO, pdf);
+    }
+    let fresnel = eta_k.map_or(Vec3::ONE, |(eta, k)| fresnel_conductor_rgb(wo.dot(h), eta, k));
+    (specular_reflectance * fresnel * (0.25 * d * g), pdf)
+}
+
 /// `D(h)·G1(wo)/(4 cos θo)`: the density of [`sample_wi`].
 #[must_use]
 pub(super) fn pdf_w(alpha: f32, wo: Vec3, wi: Vec3) -> f32 {

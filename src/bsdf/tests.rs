@@ -457,3 +457,27 @@ fn never_nan_at_grazing_or_degenerate_input() {
         }
     }
 }
+
+#[test]
+fn fused_f_pdf_is_bit_identical_to_separate_calls() {
+    let gold = Some((Vec3::new(0.143, 0.374, 1.442), Vec3::new(3.983, 2.385, 1.603)));
+    let cases = [
+        diffuse(0.7),
+        rough(0.05, None),
+        rough(0.3, gold),
+        blend(0.5, diffuse(0.5), rough(0.1, None)),
+        blend(0.3, diffuse(0.5), mirror()),
+        mirror(),
+        Bsdf::Dielectric { eta: 1.5 },
+    ];
+    let mut s = Sampler::for_key(11, 0, 0);
+    for bsdf in &cases {
+        for _ in 0..2000 {
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let wi = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let (f, pdf) = bsdf.f_pdf(wo, wi, TransportMode::Radiance);
+            assert_eq!(f, bsdf.f(wo, wi, TransportMode::Radiance), "{bsdf:?}");
+            assert_eq!(pdf.to_bits(), bsdf.pdf_w(wo, wi).to_bits(), "{bsdf:?}");
+        }
+    }
+}

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
+use crate::photon::PhotonBudget;
 use crate::render::{render, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
@@ -58,9 +59,12 @@ pub struct RenderArgs {
     /// Caustic estimator.
     #[arg(long, value_enum)]
     pub estimator: Option<Estimator>,
-    /// Photons emitted per photon pass.
-    #[arg(long)]
+    /// Photons emitted per photon pass (N of the method).
+    #[arg(long, conflicts_with = "caustic_photons")]
     pub photons: Option<u64>,
+    /// Instead of --photons: emit until this many caustic photons are stored (N = all emitted).
+    #[arg(long)]
+    pub caustic_photons: Option<u64>,
     /// k of the k-nearest-neighbour density estimate.
     #[arg(long)]
     pub knn: Option<u32>,
@@ -123,6 +127,25 @@ pub fn default_max_radius(scene: &Scene) -> f32 {
     (0.05 * r).max(1e-6)
 }
 
+/// Command line over scene file; `--photons` / `--caustic-photons` replace either scene key.
+fn photon_budget(args: &RenderArgs, caus: &crate::scene::CausticsSettings, pixels: u64) -> anyhow::Result<PhotonBudget> {
+    let budget = match (args.photons, args.caustic_photons) {
+        (Some(n), _) => PhotonBudget::Emitted(n),
+        (None, Some(m)) => PhotonBudget::Stored(m),
+        (None, None) => match (caus.photons, caus.caustic_photons) {
+            (Some(n), _) => PhotonBudget::Emitted(n),
+            (None, Some(m)) => PhotonBudget::Stored(m),
+            (None, None) => PhotonBudget::Emitted(default_photons(pixels)),
+        },
+    };
+    match budget {
+        PhotonBudget::Emitted(0) => bail!("--photons must be ≥ 1"),
+        PhotonBudget::Stored(0) => bail!("--caustic-photons must be ≥ 1"),
+        PhotonBudget::Emitted(n) | PhotonBudget::Stored(n) if n > u64::from(u32::MAX) => bail!("at most {} photons per pass", u32::MAX),
+        b => Ok(b),
+    }
+}
+
 fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
     let v: Vec<u32> = s.split(',').map(|x| x.trim().parse::<u32>()).collect::<Result<_, _>>().with_context(|| format!("--crop {s:?}: expected x0,y0,x1,y1"))?;
     if v.len() != 4 || v[0] >= v[2] || v[1] >= v[3] {
@@ -171,7 +194,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
         seed: args.seed.unwrap_or(integ.seed),
         estimator: args.estimator.unwrap_or(caus.estimator),
-        photons: args.photons.or(caus.photons).unwrap_or_else(|| default_photons(pixels)),
+        photons: photon_budget(args, caus, pixels)?,
         knn: args.knn.unwrap_or(caus.knn).max(1),
         max_radius: match args.max_radius.or(caus.max_radius) {
             Some(r) => positive("max_radius", r)?,

@@ -109,22 +109,23 @@ impl<'a> CausticEstimator<'a> {
         let wo_local = si.frame.to_local(wo_world);
         let mut sum = Vec3::ZERO;
         let photons = map.tree().photons();
+        // q₁ = (N·ΔA/(Φ·α))·Le·|cos θ|: the bracket is the same for every photon of this estimate.
+        let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
         for nb in scratch.neighbors() {
             let ph = &photons[nb.index as usize];
             let wi_local = si.frame.to_local(ph.wi_world());
-            let f = bsdf.f(wo_local, wi_local, TransportMode::Radiance);
-            if f == Vec3::ZERO {
-                continue;
-            }
-            let w1 = match self.estimator {
+            let w1_f = match self.estimator {
                 Estimator::Mis => {
-                    let q1 = self.q1(ph.le(), wi_local.z, delta_area, alpha);
-                    let q2 = bsdf.pdf_w(wo_local, wi_local);
-                    mis_weight_pair(q1, q2).0
+                    let (f, q2) = bsdf.f_pdf(wo_local, wi_local, TransportMode::Radiance);
+                    if f == Vec3::ZERO {
+                        continue;
+                    }
+                    let q1 = q1_scale * ph.le() * wi_local.z.abs();
+                    mis_weight_pair(q1, q2).0 * f
                 }
-                _ => 1.0,
+                _ => bsdf.f(wo_local, wi_local, TransportMode::Radiance),
             };
-            sum += w1 * f * ph.power();
+            sum += w1_f * ph.power();
         }
         Gather { l1: sum / delta_area, delta_area, photons: scratch.len() as u32 }
     }

@@ -136,12 +136,13 @@ impl<'a> PathTracer<'a> {
                 let u_li = sampler.next_2d();
                 if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
                     let wi_local = si.frame.to_local(ls.wi_world);
-                    let f = bsdf.f(wo_local, wi_local, TransportMode::Radiance) * wi_local.z.abs();
+                    let (f, bsdf_pdf_w) = bsdf.f_pdf(wo_local, wi_local, TransportMode::Radiance);
+                    let f = f * wi_local.z.abs();
                     if f != Vec3::ZERO && ls.pdf_w > 0.0 && ls.li != Vec3::ZERO {
                         let shadow = if ls.dist.is_finite() { si.spawn_ray_to(ls.p_light) } else { si.spawn_ray(ls.wi_world) };
                         stats.rays += 1;
                         if !self.accel.occluded(&shadow) {
-                            let w = power_heuristic(ls.pdf_w, bsdf.pdf_w(wo_local, wi_local));
+                            let w = power_heuristic(ls.pdf_w, bsdf_pdf_w);
                             l += beta * f * ls.li * (w / ls.pdf_w);
                         }
                     }

@@ -96,55 +96,110 @@ struct Traced {
     capped: u64,
 }
 
-/// Emits `n` photons for pass `pass` and builds their kd-tree (which fails only past 2³² stored photons).
-pub fn trace_photons(scene: &Scene, accel: &dyn Accel, n: u64, seed: u64, pass: u64) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
+/// How many photons a pass emits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PhotonBudget {
+    /// Emit exactly `N` photons (method.md §2's N).
+    Emitted(u64),
+    /// Emit in deterministic batches until at least this many caustic photons are stored (or
+    /// [`MAX_EMITTED_PER_STORED`]× as many were emitted); N is then the number emitted.
+    Stored(u64),
+}
+
+/// Cap on emitted/stored for [`PhotonBudget::Stored`] (a scene whose delta surfaces catch almost no
+/// light must not loop for ever).
+pub const MAX_EMITTED_PER_STORED: u64 = 10_000;
+
+/// Photons per parallel work item.
+const CHUNK: u64 = 4096;
+
+struct Emitter<'a> {
+    scene: &'a Scene,
+    accel: &'a dyn Accel,
+    selection: Distribution1D,
+    center: Vec3,
+    radius: f32,
+    seed: u64,
+    pass: u64,
+}
+
+impl Emitter<'_> {
+    /// Traces photons with indices `start..end`; powers are for N = 1 (divided by N afterwards).
+    fn trace_range(&self, start: u64, end: u64, out: &mut Traced) {
+        let chunks: Vec<Traced> = (start / CHUNK..end.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let mut t = Traced::default();
+                for i in (c * CHUNK).max(start)..((c + 1) * CHUNK).min(end) {
+                    let mut sampler = Sampler::for_photon(self.seed, self.pass, i);
+                    trace_one(self.scene, self.accel, &self.selection, self.center, self.radius, &mut sampler, &mut t);
+                }
+                t
+            })
+            .collect();
+        for t in chunks {
+            out.photons.extend_from_slice(&t.photons);
+            out.rays += t.rays;
+            out.capped += t.capped;
+        }
+    }
+}
+
+/// Emits photons for pass `pass` within `budget` and builds their kd-tree (which fails only past 2³²
+/// stored photons).
+pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, seed: u64, pass: u64) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
     let t0 = Instant::now();
     let powers = photon_light_powers(scene);
     let total_power: f32 = powers.iter().sum();
-    let selection = Distribution1D::new(&powers);
     let (center, radius) = scene.bounds.bounding_sphere();
-    const CHUNK: u64 = 4096;
-    let chunks = n.div_ceil(CHUNK);
-    let traced: Vec<Traced> = match &selection {
-        None => Vec::new(),
-        Some(selection) => (0..chunks)
-            .into_par_iter()
-            .map(|c| {
-                let mut out = Traced::default();
-                for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                    let mut sampler = Sampler::for_photon(seed, pass, i);
-                    trace_one(scene, accel, selection, n, center, radius, &mut sampler, &mut out);
+    let mut traced = Traced::default();
+    let mut emitted = 0u64;
+    if let Some(selection) = Distribution1D::new(&powers) {
+        let em = Emitter { scene, accel, selection, center, radius, seed, pass };
+        match budget {
+            PhotonBudget::Emitted(n) => {
+                em.trace_range(0, n, &mut traced);
+                emitted = n;
+            }
+            PhotonBudget::Stored(target) => {
+                let cap = target.saturating_mul(MAX_EMITTED_PER_STORED);
+                let mut batch = target.max(CHUNK);
+                while (traced.photons.len() as u64) < target && emitted < cap {
+                    let end = (emitted + batch).min(cap);
+                    em.trace_range(emitted, end, &mut traced);
+                    emitted = end;
+                    let stored = traced.photons.len() as u64;
+                    // Next batch: what the observed storage rate says is missing, plus 5%.
+                    batch = if stored == 0 {
+                        batch.saturating_mul(4)
+                    } else {
+                        let missing = target.saturating_sub(stored) as f64;
+                        ((missing * emitted as f64 / stored as f64 * 1.05) as u64).max(CHUNK)
+                    };
                 }
-                out
-            })
-            .collect(),
-    };
-    let mut photons = Vec::with_capacity(traced.iter().map(|t| t.photons.len()).sum());
-    let mut rays = 0;
-    let mut capped = 0;
-    for t in traced {
-        photons.extend_from_slice(&t.photons);
-        rays += t.rays;
-        capped += t.capped;
+            }
+        }
     }
+    // Power = Le·|cos θ′| / (N·p) (method.md §2): the 1/N is applied now that N is known.
+    let inv_n = if emitted > 0 { 1.0 / emitted as f32 } else { 0.0 };
+    let photons: Vec<Photon> = traced.photons.iter().map(|p| p.with_power(p.power() * inv_n)).collect();
     let seconds_trace = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let stored = photons.len() as u64;
     let tree = KdTree::build(photons)?;
     let stats = PhotonPassStats {
-        emitted: n,
+        emitted,
         stored,
         bytes: tree.memory_bytes() as u64,
-        rays,
-        chains_capped: capped,
+        rays: traced.rays,
+        chains_capped: traced.capped,
         seconds_trace,
         seconds_kdtree: t1.elapsed().as_secs_f64(),
     };
-    Ok((PhotonMap { tree, emitted: n, total_power }, stats))
+    Ok((PhotonMap { tree, emitted, total_power }, stats))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, n: u64, center: Vec3, radius: f32, sampler: &mut Sampler, out: &mut Traced) {
+fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, center: Vec3, radius: f32, sampler: &mut Sampler, out: &mut Traced) {
     let (light_index, pmf, _) = selection.sample_discrete(sampler.next_1d());
     let u_a = sampler.next_2d();
     let u_b = sampler.next_2d();
@@ -161,8 +216,8 @@ fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, n: u6
         return;
     }
     let cos = es.n.dot(es.dir).abs();
-    // Power = Le·|cos θ′| / (N·p): method.md §2 with the exact sampling pdf.
-    let mut power = es.le * (cos / (n as f32 * pdf));
+    // Power·N = Le·|cos θ′| / p: method.md §2 with the exact sampling pdf (1/N applied by the caller).
+    let mut power = es.le * (cos / pdf);
     let mut ray = crate::math::Ray::new(es.origin, es.dir);
     let mut delta_bounces = 0u32;
     loop {

@@ -120,6 +120,13 @@ impl Photon {
         }
     }
 
+    /// The same photon with another power (the photon pass scales by 1/N once N is known).
+    #[must_use]
+    pub fn with_power(&self, power: Vec3) -> Self {
+        debug_assert!(power.is_finite(), "non-finite photon power {power:?}");
+        Self { power: power.to_array(), ..*self }
+    }
+
     /// Where the photon was stored.
     #[inline]
     #[must_use]

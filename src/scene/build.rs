@@ -209,6 +209,12 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
             if c.photons == Some(0) {
                 return Err(ctx.key_error("integrator.caustics.photons", "must be ≥ 1"));
             }
+            if c.caustic_photons == Some(0) {
+                return Err(ctx.key_error("integrator.caustics.caustic_photons", "must be ≥ 1"));
+            }
+            if c.photons.is_some() && c.caustic_photons.is_some() {
+                return Err(ctx.key_error("integrator.caustics.caustic_photons", "give either photons or caustic_photons, not both"));
+            }
             if c.knn == 0 {
                 return Err(ctx.key_error("integrator.caustics.knn", "must be ≥ 1"));
             }
@@ -219,6 +225,7 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
             CausticsSettings {
                 estimator: c.estimator,
                 photons: c.photons,
+                caustic_photons: c.caustic_photons,
                 knn: c.knn,
                 max_radius,
             }

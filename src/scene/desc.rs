@@ -58,6 +58,7 @@ impl Default for IntegratorDesc {
 pub(crate) struct CausticsDesc {
     pub estimator: Estimator,
     pub photons: Option<u64>,
+    pub caustic_photons: Option<u64>,
     pub knn: u32,
     pub max_radius: Option<f32>,
 }
@@ -67,6 +68,7 @@ impl Default for CausticsDesc {
         Self {
             estimator: Estimator::Pt,
             photons: None,
+            caustic_photons: None,
             knn: 50,
             max_radius: None,
         }

@@ -10,6 +10,7 @@
 //! [integrator.caustics]     # optional
 //! estimator = "mis"         # pt (default) | pm | mis
 //! photons = 200000          # photons emitted per pass (> 0); absent: the integrator's default
+//! caustic_photons = 70000   # or: emit until this many caustic photons are stored (N = all emitted)
 //! knn = 50                  # k of the k-NN density estimate (≥ 1)
 //! max_radius = 0.1          # optional search-radius cap, scene units (> 0)
 //! ```
@@ -44,6 +45,8 @@ pub struct CausticsSettings {
     pub estimator: Estimator,
     /// Photons emitted per pass; `None` = the integrator's default.
     pub photons: Option<u64>,
+    /// Instead of a fixed emission count: emit until at least this many caustic photons are stored.
+    pub caustic_photons: Option<u64>,
     /// k of the k-NN density estimate.
     pub knn: u32,
     /// Cap on the k-NN search radius (scene units); `None` = unbounded.
@@ -55,6 +58,7 @@ impl Default for CausticsSettings {
         Self {
             estimator: Estimator::Pt,
             photons: None,
+            caustic_photons: None,
             knn: 50,
             max_radius: None,
         }
