@@ -40,6 +40,60 @@ pub struct RenderSettings {
     pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
+    /// Photon budget growth per pass: pass `p` (from 0) uses `photons × photon_growth^p`, so that the
+    /// kernel bias of `pm`/`mis` falls as a progressive render goes on (1 = the same budget every pass).
+    pub photon_growth: f64,
+}
+
+/// Default photon count for an image: one per pixel of the crop window, at least 100,000.
+#[must_use]
+pub fn default_photons(pixels: u64) -> u64 {
+    pixels.max(100_000)
+}
+
+/// Default maximum search radius: 5% of the scene's bounding radius.
+#[must_use]
+pub fn default_max_radius(scene: &Scene) -> f32 {
+    let (_, r) = scene.bounds.bounding_sphere();
+    (0.05 * r).max(1e-6)
+}
+
+impl RenderSettings {
+    /// The settings the scene file asks for, with the defaults above where it is silent: one pass of
+    /// `samples_per_pixel`, no time limit.
+    #[must_use]
+    pub fn from_scene(scene: &Scene) -> Self {
+        let integ = &scene.integrator;
+        let caus = &integ.caustics;
+        let (x0, y0, x1, y1) = scene.camera.crop();
+        let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
+        RenderSettings {
+            spp: integ.samples_per_pixel.max(1),
+            pass_spp: u32::MAX,
+            time_limit: None,
+            seed: integ.seed,
+            estimator: caus.estimator,
+            photons: match (caus.photons, caus.caustic_photons) {
+                (Some(n), _) => PhotonBudget::Emitted(n),
+                (None, Some(m)) => PhotonBudget::Stored(m),
+                (None, None) => PhotonBudget::Emitted(default_photons(pixels)),
+            },
+            knn: caus.knn.max(1),
+            max_radius: caus.max_radius.unwrap_or_else(|| default_max_radius(scene)),
+            photon_growth: 1.0,
+        }
+    }
+
+    /// The photon budget of pass `pass` (from 0): `photons × photon_growth^pass`, rounded, ≥ 1.
+    #[must_use]
+    pub fn photons_for_pass(&self, pass: u32) -> PhotonBudget {
+        let g = if self.photon_growth.is_finite() && self.photon_growth > 0.0 { self.photon_growth } else { 1.0 };
+        let scale = |n: u64| -> u64 { ((n as f64) * g.powi(pass.min(i32::MAX as u32) as i32)).round().clamp(1.0, f64::from(u32::MAX)) as u64 };
+        match self.photons {
+            PhotonBudget::Emitted(n) => PhotonBudget::Emitted(scale(n)),
+            PhotonBudget::Stored(m) => PhotonBudget::Stored(scale(m)),
+        }
+    }
 }
 
 /// A render that could not run to the end (both are internal limits, not user errors).
@@ -137,7 +191,7 @@ pub fn render(
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass))?;
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass))?;
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -209,4 +263,37 @@ pub fn render(
     stats.spp = spp_done;
     stats.passes = pass;
     Ok(stats)
+}
+
+/// A finished render as the library's callers (tests, `converge`) want it.
+#[derive(Clone, Debug)]
+pub struct RenderedImage {
+    /// The crop window's pixels (the film's image).
+    pub image: crate::film::Image,
+    pub stats: RenderPhaseStats,
+    /// Wall-clock seconds of [`render`] (accel build excluded).
+    pub seconds: f64,
+}
+
+/// Errors of [`render_image`].
+#[derive(Debug, thiserror::Error)]
+pub enum RenderImageError {
+    #[error(transparent)]
+    Accel(#[from] crate::error::AccelError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Film(#[from] FilmError),
+}
+
+/// Builds `backend` over the scene and renders it with `settings` on the current rayon pool, no
+/// progress, no cancellation: the one-call form used by tests and reports.
+pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings: &RenderSettings) -> Result<RenderedImage, RenderImageError> {
+    let accel = crate::accel::build_accel(backend, &scene.mesh.positions, &scene.mesh.indices)?;
+    let (x0, y0, x1, y1) = scene.camera.crop();
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crate::film::Rect::new(x0, y0, x1, y1))?;
+    let cancel = AtomicBool::new(false);
+    let t = Instant::now();
+    let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;
+    Ok(RenderedImage { image: film.image(), stats, seconds: t.elapsed().as_secs_f64() })
 }

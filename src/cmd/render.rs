@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
 use crate::photon::PhotonBudget;
-use crate::render::{render, RenderSettings};
+use crate::render::{default_max_radius, default_photons, render, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
 /// Arguments of `caustica render`. Command-line values override the scene file.
@@ -114,19 +114,6 @@ pub struct RenderStatsJson {
     pub skipped: std::collections::BTreeMap<String, String>,
 }
 
-/// Default photon count for an image: one per pixel of the crop window, at least 100,000.
-#[must_use]
-pub fn default_photons(pixels: u64) -> u64 {
-    pixels.max(100_000)
-}
-
-/// Default maximum search radius: 5% of the scene's bounding radius.
-#[must_use]
-pub fn default_max_radius(scene: &Scene) -> f32 {
-    let (_, r) = scene.bounds.bounding_sphere();
-    (0.05 * r).max(1e-6)
-}
-
 /// Command line over scene file; `--photons` / `--caustic-photons` replace either scene key.
 fn photon_budget(args: &RenderArgs, caus: &crate::scene::CausticsSettings, pixels: u64) -> anyhow::Result<PhotonBudget> {
     let budget = match (args.photons, args.caustic_photons) {
@@ -200,6 +187,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             Some(r) => positive("max_radius", r)?,
             None => default_max_radius(&scene),
         },
+        photon_growth: 1.0,
     };
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
