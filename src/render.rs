@@ -141,7 +141,6 @@ pub struct RenderPhaseStats {
 
 /// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
 /// BSDF means no caustic path; no photon-emitting light means no photon).
-#[must_use]
 pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), String> {
     if estimator == Estimator::Pt {
         return Err("estimator pt uses no photons".into());

@@ -215,7 +215,7 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
     let Some(es) = es else { return };
     let pdf = pmf * es.pdf_a * es.pdf_w_dir;
     let le_lum = luminance(es.le);
-    if !(pdf > 0.0) || le_lum <= 0.0 {
+    if pdf.is_nan() || pdf <= 0.0 || le_lum <= 0.0 {
         return;
     }
     let cos = es.n.dot(es.dir).abs();

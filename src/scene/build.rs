@@ -139,8 +139,8 @@ pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Sc
             return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
         }
         mesh.append(&placed);
-        tri_material.extend(std::iter::repeat(plan.material).take(n));
-        tri_flat.extend(std::iter::repeat(plan.flat).take(n));
+        tri_material.extend(std::iter::repeat_n(plan.material, n));
+        tri_flat.extend(std::iter::repeat_n(plan.flat, n));
         if let Some(radiance) = plan.radiance {
             let triangles: Vec<(u32, [Vec3; 3])> = (0..n).map(|i| ((base + i) as u32, placed.triangle(i))).collect();
             let area: f32 = triangles

@@ -304,7 +304,7 @@ fn best_split(bins: &Bins, map: &BinMap, node_half_area: f32) -> Option<Split> {
     let mut best: Option<Split> = None;
     for axis in 0..3 {
         let cost = best_cost[axis];
-        if cost < f32::INFINITY && best.map_or(true, |s| cost < s.cost) {
+        if cost < f32::INFINITY && best.is_none_or(|s| cost < s.cost) {
             best = Some(Split {
                 axis,
                 bin: best_bin[axis] as usize,
@@ -512,7 +512,7 @@ mod tests {
         // A line of points with exponentially growing spacing stresses the SAH (and the depth cap);
         // a block of identical points stresses the equal-centroid fallback.
         let mut pts: Vec<Vec3> = (0..3000).map(|i| Vec3::new(1.01f32.powi(i), 0.0, 0.0)).collect();
-        pts.extend(std::iter::repeat(Vec3::splat(-5.0)).take(100));
+        pts.extend(std::iter::repeat_n(Vec3::splat(-5.0), 100));
         let (mut refs, mut ids) = refs_from_points(&pts);
         let root = build(&mut refs, &mut ids);
         let mut seen = vec![0u32; pts.len()];
