@@ -109,6 +109,41 @@ impl Aabb {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
 
+    /// Whether the ray's segment `[t_min, t_max]` may touch the box: a slab test on the box grown by
+    /// 1e-4 of its extent (plus a 1e-30 floor), so that float rounding never rejects a ray that
+    /// touches a surface inside. Conservative: `false` means the ray certainly misses the box.
+    #[must_use]
+    pub fn may_intersect(&self, ray: &Ray) -> bool {
+        if self.is_empty() {
+            return false;
+        }
+        let pad = Vec3::splat(1e-4 * self.extent().max_element() + 1e-30);
+        let (lo, hi) = (self.min - pad, self.max + pad);
+        let mut t0 = ray.t_min;
+        let mut t1 = ray.t_max;
+        for a in 0..3 {
+            let (o, d) = (ray.origin[a], ray.dir[a]);
+            if d == 0.0 {
+                if o < lo[a] || o > hi[a] {
+                    return false;
+                }
+                continue;
+            }
+            let inv = 1.0 / d;
+            let (mut ta, mut tb) = ((lo[a] - o) * inv, (hi[a] - o) * inv);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            // Widen by a few ulps: (lo − o)·inv is rounded.
+            t0 = t0.max(ta - 4.0 * f32::EPSILON * ta.abs());
+            t1 = t1.min(tb + 4.0 * f32::EPSILON * tb.abs());
+            if t0 > t1 {
+                return false;
+            }
+        }
+        true
+    }
+
     /// Centre and radius of a sphere enclosing the box (the scene's bounding sphere).
     #[must_use]
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
@@ -254,5 +289,38 @@ mod tests {
             // Small relative to the scene's scale.
             assert!((up - p).length() < 1e-5 * scale, "scale {scale}");
         }
+    }
+
+    /// `may_intersect` never rejects a ray that hits a triangle inside the box (checked with the
+    /// watertight triangle test on random rays, many grazing the box's faces), and rejects rays that
+    /// point away from it.
+    #[test]
+    fn may_intersect_is_conservative() {
+        use crate::accel::triangle::{intersect_triangle, RayPrecomp};
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut hits = 0;
+        for scale in [1e-3f32, 1.0, 1e4] {
+            for _ in 0..20_000 {
+                let p = [0; 3].map(|_| Vec3::new(rnd(), rnd(), rnd()) * scale);
+                let b = Aabb::from_points(&p);
+                let origin = (Vec3::new(rnd(), rnd(), rnd()) * 4.0 - 1.5) * scale;
+                let target = p[0] + (p[1] - p[0]) * rnd() * 0.999 + (p[2] - p[0]) * rnd() * 0.001;
+                let ray = Ray::new(origin, target - origin);
+                if intersect_triangle(&RayPrecomp::new(&ray), 0, p).is_some() {
+                    hits += 1;
+                    assert!(b.may_intersect(&ray), "scale {scale}: {ray:?} hits a triangle in {b:?}");
+                }
+                let away = Ray::new(b.max + Vec3::ONE * scale, Vec3::ONE);
+                assert!(!b.may_intersect(&away));
+            }
+        }
+        assert!(hits > 30_000, "{hits}");
+        assert!(!Aabb::EMPTY.may_intersect(&Ray::new(Vec3::ZERO, Vec3::X)));
     }
 }

@@ -274,7 +274,7 @@ fn degenerate_hits_do_not_panic() {
 
 #[test]
 fn shipped_scenes_load_or_miss_only_assets_of_other_branches() {
-    for name in ["cornell-caustics.toml", "teapot-glossy.toml", "envmap-glass.toml"] {
+    for name in ["cornell-caustics.toml", "teapot-glossy.toml", "teapot-glossy-small-light.toml", "envmap-glass.toml"] {
         let path = scenes_dir().join(name);
         match Scene::load(&path) {
             Ok(s) => assert!(s.triangle_count() > 0 && !s.lights.is_empty(), "{name}"),

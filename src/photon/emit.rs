@@ -23,7 +23,7 @@ use super::record::Photon;
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
 use crate::light::{luminance, Light};
-use crate::math::Vec3;
+use crate::math::{Aabb, Vec3};
 use crate::sampler::Sampler;
 use crate::sampling::distribution::Distribution1D;
 use crate::scene::Scene;
@@ -119,6 +119,8 @@ struct Emitter<'a> {
     selection: Distribution1D,
     center: Vec3,
     radius: f32,
+    /// [`Scene::delta_bounds`]: emitted rays that miss it are discarded untraced.
+    delta_bounds: Aabb,
     seed: u64,
     pass: u64,
 }
@@ -132,7 +134,7 @@ impl Emitter<'_> {
                 let mut t = Traced::default();
                 for i in (c * CHUNK).max(start)..((c + 1) * CHUNK).min(end) {
                     let mut sampler = Sampler::for_photon(self.seed, self.pass, i);
-                    trace_one(self.scene, self.accel, &self.selection, self.center, self.radius, &mut sampler, &mut t);
+                    trace_one(self, &mut sampler, &mut t);
                 }
                 t
             })
@@ -155,7 +157,7 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, see
     let mut traced = Traced::default();
     let mut emitted = 0u64;
     if let Some(selection) = Distribution1D::new(&powers) {
-        let em = Emitter { scene, accel, selection, center, radius, seed, pass };
+        let em = Emitter { scene, accel, selection, center, radius, delta_bounds: scene.delta_bounds(), seed, pass };
         match budget {
             PhotonBudget::Emitted(n) => {
                 em.trace_range(0, n, &mut traced);
@@ -199,8 +201,9 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, see
     Ok((PhotonMap { tree, emitted, total_power }, stats))
 }
 
-fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, center: Vec3, radius: f32, sampler: &mut Sampler, out: &mut Traced) {
-    let (light_index, pmf, _) = selection.sample_discrete(sampler.next_1d());
+fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
+    let (scene, accel, center, radius) = (em.scene, em.accel, em.center, em.radius);
+    let (light_index, pmf, _) = em.selection.sample_discrete(sampler.next_1d());
     let u_a = sampler.next_2d();
     let u_b = sampler.next_2d();
     let u_c = sampler.next_1d();
@@ -219,6 +222,12 @@ fn trace_one(scene: &Scene, accel: &dyn Accel, selection: &Distribution1D, cente
     // Power·N = Le·|cos θ′| / p: method.md §2 with the exact sampling pdf (1/N applied by the caller).
     let mut power = es.le * (cos / pdf);
     let mut ray = crate::math::Ray::new(es.origin, es.dir);
+    // Only a first hit on a delta surface makes a caustic photon: a ray that misses every delta
+    // triangle's box is discarded without tracing (the same photons are stored, at a fraction of the
+    // rays when the delta objects are small as seen from the lights).
+    if !em.delta_bounds.may_intersect(&ray) {
+        return;
+    }
     let mut delta_bounces = 0u32;
     loop {
         out.rays += 1;

@@ -146,6 +146,21 @@ impl Scene {
         self.bsdfs.iter().any(Bsdf::has_delta)
     }
 
+    /// Bounds of the triangles whose material has a delta lobe (empty when there are none): a photon
+    /// whose first ray misses this box cannot become a caustic photon (method.md §2).
+    #[must_use]
+    pub fn delta_bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for (tri, &m) in self.mesh.indices.iter().zip(&self.tri_material) {
+            if self.bsdfs[m as usize].has_delta() {
+                for &v in tri {
+                    b = b.grow(self.mesh.positions[v as usize]);
+                }
+            }
+        }
+        b
+    }
+
     #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count()
