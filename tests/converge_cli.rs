@@ -168,7 +168,7 @@ fn mismatched_reference_is_a_clear_error() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.exr"));
 
-    let out = run(&["converge", scene().to_str().unwrap(), "--reference", r.to_str().unwrap(), "--time-budget", "-1", "-o", dir.join("c").to_str().unwrap()]);
+    let out = run(&["converge", scene().to_str().unwrap(), "--reference", r.to_str().unwrap(), "--time-budget=0", "-o", dir.join("c").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--time-budget"));
 }
