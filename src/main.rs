@@ -30,6 +30,8 @@ enum Command {
     Render(caustica::cmd::render::RenderArgs),
     /// Compare an image with a reference: RMSE, relMSE, block and region errors.
     Compare(caustica::report::compare::CompareArgs),
+    /// Error against time of the caustic estimators at equal render time, with plots and images.
+    Converge(caustica::report::converge::ConvergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -38,6 +40,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => caustica::bench::run(args),
         Command::Render(args) => caustica::cmd::render::run(args),
         Command::Compare(args) => caustica::report::compare::run(args),
+        Command::Converge(args) => caustica::report::converge::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -116,9 +116,12 @@ pub struct SkippedPhase {
 #[derive(Clone, Debug, Serialize)]
 pub struct PassInfo {
     pub pass: u32,
+    /// Seconds of rendering so far (photon passes and eye passes), *excluding* the time spent in the
+    /// `on_pass` callbacks, so that error-vs-time curves measure the renderer, not their own evaluation.
     pub seconds: f64,
     pub spp: u32,
     pub photons_emitted: u64,
+    pub photons_stored: u64,
 }
 
 /// Statistics of a render's phases (method.md §5).
@@ -156,6 +159,10 @@ pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), Str
 
 /// Renders `scene` into `film`. `cancel` is polled per tile (Ctrl-C); `on_pass` sees the film after
 /// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
+///
+/// Time spent inside `on_pass` (error evaluation, logs) is not rendering: it is left out of
+/// [`PassInfo::seconds`] and of the time limit, so a render with `--reference` renders as long as one
+/// without.
 pub fn render(
     scene: &Scene,
     accel: &dyn Accel,
@@ -179,6 +186,7 @@ pub fn render(
     let width = u64::from(film.width());
     let mut spp_done: u32 = 0;
     let mut pass: u32 = 0;
+    let mut callback_seconds = 0.0f64;
     loop {
         let this_pass = match settings.time_limit {
             Some(_) => pass_spp,
@@ -248,10 +256,18 @@ pub fn render(
         stats.seconds_render += t_pass.elapsed().as_secs_f64();
         spp_done += this_pass;
         pass += 1;
-        let info = PassInfo { pass, seconds: start.elapsed().as_secs_f64(), spp: spp_done, photons_emitted: stats.photons_emitted };
+        let info = PassInfo {
+            pass,
+            seconds: start.elapsed().as_secs_f64() - callback_seconds,
+            spp: spp_done,
+            photons_emitted: stats.photons_emitted,
+            photons_stored: stats.photons_stored,
+        };
+        let t_callback = Instant::now();
         on_pass(film, &info);
+        callback_seconds += t_callback.elapsed().as_secs_f64();
         if let Some(limit) = settings.time_limit {
-            if start.elapsed().as_secs_f64() >= limit {
+            if start.elapsed().as_secs_f64() - callback_seconds >= limit {
                 break;
             }
         }

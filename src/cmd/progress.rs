@@ -4,6 +4,7 @@
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::render::{PassInfo, RenderSettings};
+use crate::report::error_log::{progress_text, PassError};
 
 pub struct Progress {
     bar: Option<ProgressBar>,
@@ -39,9 +40,13 @@ impl Progress {
         }
     }
 
-    pub fn pass_done(&self, info: &PassInfo) {
+    /// A pass finished; `error` is its error against the reference, if there is one.
+    pub fn pass_done(&self, info: &PassInfo, error: Option<&PassError>) {
         if let Some(b) = &self.bar {
-            b.set_message(format!("pass {} ({} spp)", info.pass, info.spp));
+            match error {
+                Some(e) => b.set_message(format!("pass {} ({} spp) {}", info.pass, info.spp, progress_text(e))),
+                None => b.set_message(format!("pass {} ({} spp)", info.pass, info.spp)),
+            }
         }
     }
 

@@ -14,6 +14,7 @@ use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
 use crate::photon::PhotonBudget;
 use crate::render::{default_max_radius, default_photons, render, RenderSettings};
+use crate::report::error_log::{ErrorTracker, PassError};
 use crate::scene::{Estimator, Scene};
 
 /// Arguments of `caustica render`. Command-line values override the scene file.
@@ -71,9 +72,25 @@ pub struct RenderArgs {
     /// Maximum search radius of the density estimate (scene units).
     #[arg(long)]
     pub max_radius: Option<f32>,
+    /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
+    /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
+    #[arg(long, default_value_t = 1.0)]
+    pub photon_growth: f64,
     /// Write statistics as JSON here.
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// A reference image (OpenEXR, the size of the rendered crop window): after every pass the render is
+    /// compared with it (RMSE, relMSE, regions); the figures go to the progress line, `--error-log` and
+    /// the stats JSON (key `error`).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// With --reference: write one CSV row per pass here (seconds, spp, photons, RMSE, relMSE, regions).
+    #[arg(long, requires = "reference")]
+    pub error_log: Option<PathBuf>,
+    /// With --reference: a region to report separately, `name=x0,y0,x1,y1` (pixels or percentages like
+    /// `62%`, exclusive ends). Repeatable.
+    #[arg(long = "region", requires = "reference")]
+    pub regions: Vec<String>,
     /// No progress bar.
     #[arg(long, short = 'q')]
     pub quiet: bool,
@@ -112,6 +129,18 @@ pub struct RenderStatsJson {
     pub partial: bool,
     /// Phases the scene did not need, each with the reason.
     pub skipped: std::collections::BTreeMap<String, String>,
+    pub photon_growth: f64,
+    /// With --reference: the error after the last pass.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<ErrorJson>,
+}
+
+/// The `error` key of the stats JSON: the reference and the last pass's figures.
+#[derive(Debug, Serialize)]
+pub struct ErrorJson {
+    pub reference: String,
+    #[serde(flatten)]
+    pub last: PassError,
 }
 
 /// Command line over scene file; `--photons` / `--caustic-photons` replace either scene key.
@@ -139,6 +168,14 @@ fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
         bail!("--crop {s:?}: expected x0,y0,x1,y1 with x0 < x1 and y0 < y1");
     }
     Ok([v[0], v[1], v[2], v[3]])
+}
+
+/// Checks `--photon-growth`: finite and ≥ 1 (below 1 the kernel bias would grow pass after pass).
+pub fn photon_growth(v: f64) -> anyhow::Result<f64> {
+    if !(v.is_finite() && v >= 1.0) {
+        bail!("--photon-growth must be a finite number ≥ 1, got {v}");
+    }
+    Ok(v)
 }
 
 /// Checks a user-given positive finite number.
@@ -187,7 +224,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             Some(r) => positive("max_radius", r)?,
             None => default_max_radius(&scene),
         },
-        photon_growth: 1.0,
+        photon_growth: photon_growth(args.photon_growth)?,
     };
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
@@ -195,6 +232,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let stem = args.scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
         PathBuf::from(format!("{stem}.exr"))
     });
+
+    // The reference is read and checked before anything is rendered.
+    let mut tracker = match &args.reference {
+        Some(path) => {
+            let t = ErrorTracker::load(path, &args.regions)?;
+            t.check_size(x1 - x0, y1 - y0, path)?;
+            Some(t)
+        }
+        None => None,
+    };
+    let mut log_error: Option<anyhow::Error> = None;
 
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("creating the worker threads")?;
     let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
@@ -214,8 +262,37 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let progress = crate::cmd::progress::Progress::new(show_progress, &settings, pixels);
     let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
     let phases = pool.install(|| {
-        render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |_, info| progress.pass_done(info), &|samples| progress.tile_done(samples))
+        render(
+            &scene,
+            accel.as_ref(),
+            &settings,
+            &mut film,
+            &cancel,
+            |film, info| {
+                let row = match tracker.as_mut() {
+                    Some(t) => match t.record(&film.image(), info) {
+                        Ok(row) => Some(row.clone()),
+                        Err(e) => {
+                            log_error.get_or_insert(anyhow::Error::new(e).context("comparing with --reference"));
+                            None
+                        }
+                    },
+                    None => None,
+                };
+                progress.pass_done(info, row.as_ref());
+                // The log is rewritten (atomically) after every pass, so it is complete whenever it is read.
+                if let (Some(t), Some(log)) = (tracker.as_ref(), &args.error_log) {
+                    if let Err(e) = crate::film::io::write_bytes_atomic(log, t.csv().as_bytes()) {
+                        log_error.get_or_insert(anyhow::Error::new(e).context("--error-log"));
+                    }
+                }
+            },
+            &|samples| progress.tile_done(samples),
+        )
     })?;
+    if let Some(e) = log_error {
+        return Err(e);
+    }
     progress.finish();
 
     let image = film.image();
@@ -255,6 +332,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         inf_pixels: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
+        photon_growth: settings.photon_growth,
+        error: match (&tracker, &args.reference) {
+            (Some(t), Some(r)) => t.rows().last().map(|last| ErrorJson { reference: r.display().to_string(), last: last.clone() }),
+            _ => None,
+        },
     };
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats)?;
@@ -274,6 +356,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             stats.rays_per_second * 1e-6,
             if phases.partial { " [partial: interrupted]" } else { "" }
         );
+        if let Some(last) = tracker.as_ref().and_then(|t| t.rows().last()) {
+            eprintln!("error against the reference after {} passes: {}", last.pass, crate::report::error_log::progress_text(last));
+        }
     }
     Ok(())
 }

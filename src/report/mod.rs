@@ -2,4 +2,7 @@
 //! ([`compare`]) that prints them and writes them as JSON.
 
 pub mod compare;
+pub mod converge;
+pub mod error_log;
 pub mod metrics;
+pub mod plot;
