@@ -43,12 +43,7 @@ fn render_on_pool(threads: usize, scene: &Scene, settings: &RenderSettings) -> I
 
 fn assert_bit_identical(what: &str, a: &Image, b: &Image) {
     assert_eq!((a.width(), a.height()), (b.width(), b.height()));
-    let differing = a
-        .pixels()
-        .iter()
-        .zip(b.pixels())
-        .filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
-        .count();
+    let differing = a.pixels().iter().zip(b.pixels()).filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits)).count();
     assert_eq!(differing, 0, "{what}: {differing} pixels differ between 1 and 2 threads");
 }
 
