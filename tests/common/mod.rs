@@ -1,0 +1,194 @@
+//! Shared helpers of the statistical image tests (`render_reference`, `render_analytic`,
+//! `render_determinism`): loading scenes and the Mitsuba reference, rendering with per-pixel variance,
+//! box downsampling, region means with their standard errors, and z-scores.
+//!
+//! Statistics are on luminance (Rec. 709, [`caustica::film::luminance`]), the quantity whose per-pixel
+//! sample variance the film keeps. For a region `R` of `n` pixels, the mean `m = Σ Yᵢ / n` of independent
+//! pixel means has variance `Var m = Σ σᵢ² / n²` with `σᵢ² = s²ᵢ / cᵢ` (the pixel's sample variance over its
+//! sample count). That is what [`LumImage::region`] returns.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use caustica::accel::{build_accel, BackendKind};
+use caustica::film::{read_exr, Film, Image, Rect};
+use caustica::render::{render, RenderPhaseStats, RenderSettings};
+use caustica::scene::Scene;
+
+/// A path inside the repository.
+pub fn repo_path(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// Samples per pixel of the Mitsuba 3 reference of `scenes/cornell-caustics.toml`.
+pub const REFERENCE_SPP: f64 = 9984.0;
+
+const REFERENCE_REL: &str = "shared/reference/cornell-caustics/mitsuba-path-9984spp.exr";
+
+/// The reference (256×256, 9,984 spp) lives outside the repository: CI checks the repository out with
+/// `shared/` beside it, i.e. `$CARGO_MANIFEST_DIR/../shared/...`. A git worktree one level deeper
+/// (`<root>/wt/<name>`) finds it further up, so the ancestors of the manifest directory are tried in order,
+/// nearest first. `Err` lists every path tried.
+pub fn reference_path() -> Result<PathBuf, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tried: Vec<PathBuf> = root.ancestors().skip(1).map(|dir| dir.join(REFERENCE_REL)).collect();
+    tried.iter().find(|p| p.is_file()).cloned().ok_or_else(|| {
+        let list: Vec<String> = tried.iter().map(|p| p.display().to_string()).collect();
+        list.join(", ")
+    })
+}
+
+/// Loads the reference; its absence is a test failure, not a skip (the test would otherwise pass
+/// without checking anything).
+pub fn load_reference() -> Image {
+    let path = reference_path().unwrap_or_else(|tried| {
+        panic!(
+            "the Mitsuba reference is missing: these tests need the `shared/` folder beside the repository \
+             (tried {tried}); they do not skip without it"
+        )
+    });
+    read_exr(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()))
+}
+
+/// Loads a scene shipped in `scenes/`.
+pub fn load_scene(name: &str) -> Scene {
+    let path = repo_path("scenes").join(name);
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Builds a scene from TOML text written in the test (no files referenced).
+pub fn scene_from_toml(name: &str, text: &str) -> Scene {
+    Scene::from_toml_str(text, &repo_path("tests"), Path::new(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Per-pixel luminance of an image and the variance of each pixel's estimate (0 for a reference whose
+/// noise is accounted for separately).
+#[derive(Clone, Debug)]
+pub struct LumImage {
+    pub width: u32,
+    pub height: u32,
+    pub lum: Vec<f64>,
+    /// Variance of each pixel's mean (s² / count).
+    pub var: Vec<f64>,
+}
+
+/// Mean of a region and the variance of that mean.
+#[derive(Clone, Copy, Debug)]
+pub struct Stat {
+    pub mean: f64,
+    pub var: f64,
+}
+
+impl Stat {
+    pub fn sigma(&self) -> f64 {
+        self.var.sqrt()
+    }
+}
+
+/// z-score of `a − b` for independent estimates (variances add).
+pub fn z(a: Stat, b: Stat) -> f64 {
+    (a.mean - b.mean) / (a.var + b.var).sqrt()
+}
+
+impl LumImage {
+    /// Luminance of an image with zero variance (the caller adds its noise model).
+    pub fn from_image(image: &Image) -> Self {
+        let lum = image.pixels().iter().map(|p| f64::from(caustica::film::luminance(*p))).collect::<Vec<_>>();
+        let n = lum.len();
+        LumImage { width: image.width(), height: image.height(), lum, var: vec![0.0; n] }
+    }
+
+    /// Mean of `[x0, x1) × [y0, y1)` and its variance `Σ σᵢ² / n²`.
+    pub fn region(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> Stat {
+        assert!(x0 < x1 && y0 < y1 && x1 <= self.width && y1 <= self.height, "region {x0},{y0},{x1},{y1} outside");
+        let (mut s, mut v) = (0.0, 0.0);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let i = (y * self.width + x) as usize;
+                s += self.lum[i];
+                v += self.var[i];
+            }
+        }
+        let n = f64::from((x1 - x0) * (y1 - y0));
+        Stat { mean: s / n, var: v / (n * n) }
+    }
+
+    pub fn whole(&self) -> Stat {
+        self.region(0, 0, self.width, self.height)
+    }
+
+    /// The `b × b` blocks tiling the image (the image size must be a multiple of `b`), row by row.
+    pub fn blocks(&self, b: u32) -> Vec<(u32, u32, Stat)> {
+        assert!(self.width % b == 0 && self.height % b == 0, "{}×{} is not tiled by {b}", self.width, self.height);
+        let mut out = Vec::new();
+        for by in (0..self.height).step_by(b as usize) {
+            for bx in (0..self.width).step_by(b as usize) {
+                out.push((bx, by, self.region(bx, by, bx + b, by + b)));
+            }
+        }
+        out
+    }
+
+    /// 2×2 box average (pixel `(x, y)` = mean of `(2x..2x+2, 2y..2y+2)`); variances average as `Σσ²/16`.
+    pub fn downsample2(&self) -> Self {
+        assert!(self.width % 2 == 0 && self.height % 2 == 0);
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut lum = Vec::with_capacity((w * h) as usize);
+        let mut var = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let (mut s, mut v) = (0.0, 0.0);
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let i = ((2 * y + dy) * self.width + 2 * x + dx) as usize;
+                    s += self.lum[i];
+                    v += self.var[i];
+                }
+                lum.push(s / 4.0);
+                var.push(v / 16.0);
+            }
+        }
+        LumImage { width: w, height: h, lum, var }
+    }
+}
+
+/// A render with its per-pixel luminance variance.
+pub struct Rendered {
+    pub image: Image,
+    pub lum: LumImage,
+    /// Per-pixel *sample* variance s² (not divided by the count), for noise models of other renders.
+    pub sample_var: Vec<f64>,
+    pub stats: RenderPhaseStats,
+    pub seconds: f64,
+}
+
+/// Renders like `caustica::render::render_image`, but keeps the film so that the per-pixel sample
+/// variance of the luminance is available.
+pub fn render_with_variance(scene: &Scene, backend: BackendKind, settings: &RenderSettings) -> Rendered {
+    let accel = build_accel(backend, &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{e}"));
+    let (x0, y0, x1, y1) = scene.camera.crop();
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1)).expect("film");
+    let cancel = AtomicBool::new(false);
+    let t = std::time::Instant::now();
+    let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
+    let seconds = t.elapsed().as_secs_f64();
+    assert_eq!(film.nan_count() + film.inf_count(), 0, "non-finite samples");
+    let image = film.image();
+    let mut lum = LumImage::from_image(&image);
+    let mut sample_var = Vec::with_capacity(lum.lum.len());
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = film.pixel(x, y).expect("pixel in crop");
+            let s2 = p.luminance_variance().unwrap_or_else(|| panic!("pixel ({x}, {y}) has {} samples; need ≥ 2", p.count));
+            sample_var.push(s2);
+            lum.var[((y - y0) * (x1 - x0) + (x - x0)) as usize] = s2 / p.count as f64;
+        }
+    }
+    Rendered { image, lum, sample_var, stats, seconds }
+}
+
+/// The available backend (Embree when compiled in).
+pub fn backend() -> BackendKind {
+    BackendKind::default_available()
+}
