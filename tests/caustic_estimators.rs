@@ -136,8 +136,8 @@ fn region_ratio(img: &Image, reference: &Image, region: &Region) -> f64 {
 ///   within its σ/√3 = 0.05 of 1 by 1.2 σ); it is dominated by the photon blotches.
 /// - mirror-ceiling, region = the floor in front (x 30–70 %, y 70–100 %): pt ±0.03 (σ ≈ 0.005 plus the
 ///   reference's own noise); pm and mis ±0.05: measured +0.4 % and +2.0 % (red channel, seeds 2, 3;
-///   luminance +1.8 % for seed 3), i.e. a kernel bias of
-///   ≈ +1 % (k = 50 neighbours over a smoothly varying caustic) plus noise.
+///   luminance +1.8 % for seed 3), i.e. a kernel bias of ≈ +1 % (k = 50 neighbours over a smoothly
+///   varying caustic) plus noise.
 #[test]
 fn caustic_region_means_agree_with_the_reference() {
     for (r, name, spec, tol) in [
