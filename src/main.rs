@@ -4,7 +4,7 @@
 use std::process::ExitCode;
 use std::sync::LazyLock;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// `caustica <version> (embree <version>)`, or `(embree: not compiled in)` without the feature.
 static VERSION: LazyLock<String> = LazyLock::new(|| {
@@ -34,8 +34,19 @@ enum Command {
     Converge(caustica::report::converge::ConvergeArgs),
 }
 
+/// Parses the command line. Every option that takes a value accepts a leading `-` as the start of a
+/// negative number (`--exposure -1` is valid; `--seed -1` is then rejected by the value parser with an
+/// error naming the flag, instead of clap's "unexpected argument '-1'"). Errors exit with code 2.
+fn parse_cli() -> Cli {
+    let command = Cli::command().mut_subcommands(|sub| {
+        sub.mut_args(|arg| if arg.get_action().takes_values() && !arg.is_positional() { arg.allow_negative_numbers(true) } else { arg })
+    });
+    let mut matches = command.get_matches();
+    Cli::from_arg_matches_mut(&mut matches).unwrap_or_else(|e| e.exit())
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let result = match &cli.command {
         Command::Bench(args) => caustica::bench::run(args),
         Command::Render(args) => caustica::cmd::render::run(args),

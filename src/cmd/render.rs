@@ -186,9 +186,54 @@ fn positive(name: &str, v: f32) -> anyhow::Result<f32> {
     Ok(v)
 }
 
+/// Checks the command-line values that need no scene, before anything slow happens: counts that must be
+/// ≥ 1 (`--spp`, `--pass-spp`, `--knn`, `--threads`, `--photons`, `--caustic-photons`, `--width`,
+/// `--height`) are rejected, not clamped; `--max-radius` must be positive and finite; and the directories
+/// of `-o`, `--png` and `--stats` must exist, so that a long render is never lost to a typo in an output
+/// path.
+pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
+    let counts: [(&str, Option<u64>); 8] = [
+        ("--spp", args.spp.map(u64::from)),
+        ("--pass-spp", args.pass_spp.map(u64::from)),
+        ("--knn", args.knn.map(u64::from)),
+        ("--threads", args.threads.map(|t| t as u64)),
+        ("--photons", args.photons),
+        ("--caustic-photons", args.caustic_photons),
+        ("--width", args.width.map(u64::from)),
+        ("--height", args.height.map(u64::from)),
+    ];
+    for (flag, value) in counts {
+        if value == Some(0) {
+            bail!("{flag} must be at least 1, got 0");
+        }
+    }
+    if let Some(r) = args.max_radius {
+        positive("--max-radius", r)?;
+    }
+    let outputs = [("-o/--output", args.output.as_deref()), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())];
+    for (flag, path) in outputs {
+        let Some(path) = path else { continue };
+        if path.file_name().is_none() {
+            bail!("{flag} {}: not a file name", path.display());
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            bail!("{flag} {}: directory {} does not exist", path.display(), dir.display());
+        }
+        if path.is_dir() {
+            bail!("{flag} {}: is a directory", path.display());
+        }
+    }
+    Ok(())
+}
+
 /// Runs `caustica render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let t_start = Instant::now();
+    validate_args(args)?;
     let mut scene = Scene::load(&args.scene)?;
     if args.width.is_some() || args.height.is_some() {
         let w = args.width.unwrap_or(scene.camera.width());
@@ -210,7 +255,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let (x0, y0, x1, y1) = scene.camera.crop();
     let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
     let settings = RenderSettings {
-        spp: args.spp.unwrap_or(integ.samples_per_pixel).max(1),
+        spp: args.spp.unwrap_or(integ.samples_per_pixel),
         pass_spp: if args.time_limit.is_some() { args.pass_spp.unwrap_or(4) } else { args.pass_spp.unwrap_or(u32::MAX) },
         time_limit: match args.time_limit {
             Some(t) => Some(f64::from(positive("--time-limit", t as f32)?)),
@@ -219,14 +264,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         seed: args.seed.unwrap_or(integ.seed),
         estimator: args.estimator.unwrap_or(caus.estimator),
         photons: photon_budget(args, caus, pixels)?,
-        knn: args.knn.unwrap_or(caus.knn).max(1),
+        knn: args.knn.unwrap_or(caus.knn),
         max_radius: match args.max_radius.or(caus.max_radius) {
             Some(r) => positive("max_radius", r)?,
             None => default_max_radius(&scene),
         },
         photon_growth: photon_growth(args.photon_growth)?,
     };
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
