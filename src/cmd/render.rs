@@ -12,8 +12,8 @@ use serde::Serialize;
 
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
-use crate::photon::PhotonBudget;
-use crate::render::{default_max_radius, default_photons, render, RenderSettings};
+use crate::cmd::photon_args::PhotonArgs;
+use crate::render::{render, RenderSettings};
 use crate::report::error_log::{ErrorTracker, PassError};
 use crate::scene::{Estimator, Scene};
 
@@ -60,18 +60,8 @@ pub struct RenderArgs {
     /// Caustic estimator.
     #[arg(long, value_enum)]
     pub estimator: Option<Estimator>,
-    /// Photons emitted per photon pass (N of the method).
-    #[arg(long, conflicts_with = "caustic_photons")]
-    pub photons: Option<u64>,
-    /// Instead of --photons: emit until this many caustic photons are stored (N = all emitted).
-    #[arg(long)]
-    pub caustic_photons: Option<u64>,
-    /// k of the k-nearest-neighbour density estimate.
-    #[arg(long)]
-    pub knn: Option<u32>,
-    /// Maximum search radius of the density estimate (scene units).
-    #[arg(long)]
-    pub max_radius: Option<f32>,
+    #[command(flatten)]
+    pub photon: PhotonArgs,
     /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
     /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
     #[arg(long, default_value_t = 1.0)]
@@ -143,23 +133,17 @@ pub struct ErrorJson {
     pub last: PassError,
 }
 
-/// Command line over scene file; `--photons` / `--caustic-photons` replace either scene key.
-fn photon_budget(args: &RenderArgs, caus: &crate::scene::CausticsSettings, pixels: u64) -> anyhow::Result<PhotonBudget> {
-    let budget = match (args.photons, args.caustic_photons) {
-        (Some(n), _) => PhotonBudget::Emitted(n),
-        (None, Some(m)) => PhotonBudget::Stored(m),
-        (None, None) => match (caus.photons, caus.caustic_photons) {
-            (Some(n), _) => PhotonBudget::Emitted(n),
-            (None, Some(m)) => PhotonBudget::Stored(m),
-            (None, None) => PhotonBudget::Emitted(default_photons(pixels)),
-        },
-    };
-    match budget {
-        PhotonBudget::Emitted(0) => bail!("--photons must be ≥ 1"),
-        PhotonBudget::Stored(0) => bail!("--caustic-photons must be ≥ 1"),
-        PhotonBudget::Emitted(n) | PhotonBudget::Stored(n) if n > u64::from(u32::MAX) => bail!("at most {} photons per pass", u32::MAX),
-        b => Ok(b),
+/// `--width` / `--height` over the scene's film size (either may be given alone).
+pub fn set_resolution(scene: &mut Scene, width: Option<u32>, height: Option<u32>) -> anyhow::Result<()> {
+    if width.is_some() || height.is_some() {
+        let w = width.unwrap_or(scene.camera.width());
+        let h = height.unwrap_or(scene.camera.height());
+        if w == 0 || h == 0 {
+            bail!("--width/--height must be positive");
+        }
+        scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
     }
+    Ok(())
 }
 
 fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
@@ -192,13 +176,10 @@ fn positive(name: &str, v: f32) -> anyhow::Result<f32> {
 /// of `-o`, `--png` and `--stats` must exist, so that a long render is never lost to a typo in an output
 /// path.
 pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
-    let counts: [(&str, Option<u64>); 8] = [
+    let counts: [(&str, Option<u64>); 5] = [
         ("--spp", args.spp.map(u64::from)),
         ("--pass-spp", args.pass_spp.map(u64::from)),
-        ("--knn", args.knn.map(u64::from)),
         ("--threads", args.threads.map(|t| t as u64)),
-        ("--photons", args.photons),
-        ("--caustic-photons", args.caustic_photons),
         ("--width", args.width.map(u64::from)),
         ("--height", args.height.map(u64::from)),
     ];
@@ -207,9 +188,7 @@ pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
             bail!("{flag} must be at least 1, got 0");
         }
     }
-    if let Some(r) = args.max_radius {
-        positive("--max-radius", r)?;
-    }
+    args.photon.validate()?;
     let outputs = [("-o/--output", args.output.as_deref()), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())];
     for (flag, path) in outputs {
         let Some(path) = path else { continue };
@@ -235,14 +214,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let t_start = Instant::now();
     validate_args(args)?;
     let mut scene = Scene::load(&args.scene)?;
-    if args.width.is_some() || args.height.is_some() {
-        let w = args.width.unwrap_or(scene.camera.width());
-        let h = args.height.unwrap_or(scene.camera.height());
-        if w == 0 || h == 0 {
-            bail!("--width/--height must be positive");
-        }
-        scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-    }
+    set_resolution(&mut scene, args.width, args.height)?;
     if let Some(c) = &args.crop {
         let [x0, y0, x1, y1] = parse_crop(c)?;
         if x1 > scene.camera.width() || y1 > scene.camera.height() {
@@ -250,27 +222,25 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
         scene.camera.set_crop(x0, y0, x1, y1).map_err(|e| anyhow::anyhow!("--crop {c}: {e}"))?;
     }
-    let integ = &scene.integrator;
-    let caus = &integ.caustics;
     let (x0, y0, x1, y1) = scene.camera.crop();
     let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
-    let settings = RenderSettings {
-        spp: args.spp.unwrap_or(integ.samples_per_pixel),
-        pass_spp: if args.time_limit.is_some() { args.pass_spp.unwrap_or(4) } else { args.pass_spp.unwrap_or(u32::MAX) },
-        time_limit: match args.time_limit {
-            Some(t) => Some(f64::from(positive("--time-limit", t as f32)?)),
-            None => None,
-        },
-        seed: args.seed.unwrap_or(integ.seed),
-        estimator: args.estimator.unwrap_or(caus.estimator),
-        photons: photon_budget(args, caus, pixels)?,
-        knn: args.knn.unwrap_or(caus.knn),
-        max_radius: match args.max_radius.or(caus.max_radius) {
-            Some(r) => positive("max_radius", r)?,
-            None => default_max_radius(&scene),
-        },
-        photon_growth: photon_growth(args.photon_growth)?,
+    let mut settings = RenderSettings::from_scene(&scene);
+    if let Some(spp) = args.spp {
+        settings.spp = spp;
+    }
+    settings.pass_spp = args.pass_spp.unwrap_or(if args.time_limit.is_some() { 4 } else { u32::MAX });
+    settings.time_limit = match args.time_limit {
+        Some(t) => Some(f64::from(positive("--time-limit", t as f32)?)),
+        None => None,
     };
+    if let Some(seed) = args.seed {
+        settings.seed = seed;
+    }
+    if let Some(estimator) = args.estimator {
+        settings.estimator = estimator;
+    }
+    args.photon.apply(&mut settings);
+    settings.photon_growth = photon_growth(args.photon_growth)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
     let output = args.output.clone().unwrap_or_else(|| {

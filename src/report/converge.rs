@@ -32,7 +32,8 @@ use serde::Serialize;
 use super::error_log::{progress_text, ErrorTracker, PassError};
 use super::plot::{error_plot, side_by_side, Panel, Series};
 use crate::accel::{build_accel, BackendKind};
-use crate::cmd::render::{photon_growth, write_json_atomic};
+use crate::cmd::photon_args::PhotonArgs;
+use crate::cmd::render::{photon_growth, set_resolution, write_json_atomic};
 use crate::film::io::write_bytes_atomic;
 use crate::film::{write_exr, write_png, Film, Image, Rect, Tonemap};
 use crate::photon::PhotonBudget;
@@ -93,18 +94,8 @@ pub struct ConvergeArgs {
     /// Photon budget growth per pass: pass p uses photons × G^p.
     #[arg(long, default_value_t = DEFAULT_PHOTON_GROWTH)]
     pub photon_growth: f64,
-    /// Photons emitted per photon pass (first pass; see --photon-growth).
-    #[arg(long, conflicts_with = "caustic_photons")]
-    pub photons: Option<u64>,
-    /// Instead of --photons: emit until this many caustic photons are stored (first pass).
-    #[arg(long)]
-    pub caustic_photons: Option<u64>,
-    /// k of the k-nearest-neighbour density estimate.
-    #[arg(long)]
-    pub knn: Option<u32>,
-    /// Maximum search radius of the density estimate (scene units).
-    #[arg(long)]
-    pub max_radius: Option<f32>,
+    #[command(flatten)]
+    pub photon: PhotonArgs,
     #[arg(long)]
     pub seed: Option<u64>,
     #[arg(long)]
@@ -278,21 +269,6 @@ fn time_to_error_csv(table: &TimeToErrorTable) -> String {
     s
 }
 
-/// Command line over scene file for the first pass's photon budget.
-fn photon_budget(args: &ConvergeArgs, scene_default: PhotonBudget) -> anyhow::Result<PhotonBudget> {
-    let b = match (args.photons, args.caustic_photons) {
-        (Some(n), _) => PhotonBudget::Emitted(n),
-        (None, Some(m)) => PhotonBudget::Stored(m),
-        (None, None) => scene_default,
-    };
-    match b {
-        PhotonBudget::Emitted(0) => bail!("--photons must be ≥ 1"),
-        PhotonBudget::Stored(0) => bail!("--caustic-photons must be ≥ 1"),
-        PhotonBudget::Emitted(n) | PhotonBudget::Stored(n) if n > u64::from(u32::MAX) => bail!("at most {} photons per pass", u32::MAX),
-        b => Ok(b),
-    }
-}
-
 fn describe_budget(b: PhotonBudget) -> String {
     match b {
         PhotonBudget::Emitted(n) => format!("{n} emitted"),
@@ -321,15 +297,9 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
         bail!("--target-error must be a positive number, got {t}");
     }
     let growth = photon_growth(args.photon_growth)?;
+    args.photon.validate()?;
     let mut scene = Scene::load(&args.scene)?;
-    if args.width.is_some() || args.height.is_some() {
-        let w = args.width.unwrap_or(scene.camera.width());
-        let h = args.height.unwrap_or(scene.camera.height());
-        if w == 0 || h == 0 {
-            bail!("--width/--height must be positive");
-        }
-        scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-    }
+    set_resolution(&mut scene, args.width, args.height)?;
     let (x0, y0, x1, y1) = scene.camera.crop();
     let (width, height) = (x1 - x0, y1 - y0);
     let template = ErrorTracker::load(&args.reference, &args.regions)?;
@@ -344,16 +314,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
     base.pass_spp = args.pass_spp;
     base.time_limit = Some(args.time_budget);
     base.photon_growth = growth;
-    base.photons = photon_budget(args, base.photons)?;
-    if let Some(k) = args.knn {
-        base.knn = k.max(1);
-    }
-    if let Some(r) = args.max_radius {
-        if !(r.is_finite() && r > 0.0) {
-            bail!("--max-radius must be a positive finite number, got {r}");
-        }
-        base.max_radius = r;
-    }
+    args.photon.apply(&mut base);
     if let Some(s) = args.seed {
         base.seed = s;
     }
