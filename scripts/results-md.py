@@ -51,7 +51,7 @@ w("timings of one run can differ by ~5%); the estimators ran one after the other
 w("Errors are against a reference: for teapot-glossy a long `caustica render --estimator pt` render "
   f"({refstats['spp']} spp, {refstats['seconds_render']:.0f} s, seed {refstats['seed']}, different from every compared render so its noise is "
   "independent; path tracing is unbiased, so it converges to the true image, caustics included); for cornell-caustics "
-  "Mitsuba 3's 9,984-spp path-traced reference (`../shared/reference/cornell-caustics/`). RMSE is over RGB "
+  "Mitsuba 3's 9,984-spp path-traced reference (`scenes/reference/cornell-caustics/`). RMSE is over RGB "
   "(`caustica compare`); the teapot's **floor** region is `floor=0,345,640,480` (the floor in front of the teapot with "
   "its caustics and the glossy reflection of the teapot's highlight, teapot excluded); cornell's **caustic** region "
   "is `caustic=62%,86%,80%,94%` (below the glass sphere). The reference's own noise adds to every RMSE below, so "

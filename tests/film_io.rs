@@ -6,7 +6,7 @@ use caustica::film::io::{temp_path_for, write_bytes_atomic};
 use caustica::film::{read_exr, write_exr, write_png, Image, ImageError, Tonemap};
 use caustica::math::Vec3;
 
-const REFERENCE: &str = "/work/shared/reference/cornell-caustics/mitsuba-path-9984spp.exr";
+const REFERENCE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/reference/cornell-caustics/mitsuba-path-9984spp.exr");
 
 /// A fresh, empty directory for one test.
 fn test_dir(name: &str) -> PathBuf {

@@ -110,7 +110,7 @@ fn errors_name_the_problem() {
 
 #[test]
 fn mitsuba_reference_against_a_scaled_copy() {
-    let path = Path::new("/work/shared/reference/cornell-caustics/mitsuba-path-9984spp.exr");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/reference/cornell-caustics/mitsuba-path-9984spp.exr"));
     let reference = caustica::film::read_exr(path).unwrap();
     let mut scaled = reference.clone();
     for p in scaled.pixels_mut() {

@@ -1,5 +1,5 @@
 //! Light transport: the unidirectional path tracer with next-event estimation and BSDF sampling
-//! combined by the power heuristic, and the three caustic estimators of `shared/docs/method.md` §1.
+//! combined by the power heuristic, and the three caustic estimators of `docs/method.md` §1.
 //!
 //! - [`path`]: the path tracer. Every emission term a camera path collects goes through one function,
 //!   [`path::PathTracer::emission_weight`], which decides between NEE/BSDF MIS, full weight (camera-side

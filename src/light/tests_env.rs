@@ -272,21 +272,15 @@ fn black_map_and_bad_input() {
     ));
 }
 
-/// A shared asset: `<repo>/../shared/assets/envmaps/<name>` (CI: the clone has `shared/` beside it); a
-/// helper's worktree one level deeper finds it at `../../shared`.
-fn shared_envmap(name: &str) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    [root.join("../shared"), root.join("../../shared")]
-        .into_iter()
-        .map(|base| base.join("assets/envmaps").join(name))
-        .find(|p| p.exists())
-        .unwrap_or_else(|| panic!("shared asset {name} not found in ../shared or ../../shared of {}", root.display()))
+/// An environment map shipped in `scenes/assets/envmaps/` (provenance in `scenes/assets/PROVENANCE.md`).
+fn shipped_envmap(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/assets/envmaps").join(name)
 }
 
 #[test]
 fn studio_exr_and_hdr_agree() {
-    let exr = EnvMap::load(&shared_envmap("studio.exr"), 1.0, Mat4::IDENTITY).unwrap();
-    let hdr = EnvMap::load(&shared_envmap("studio.hdr"), 1.0, Mat4::IDENTITY).unwrap();
+    let exr = EnvMap::load(&shipped_envmap("studio.exr"), 1.0, Mat4::IDENTITY).unwrap();
+    let hdr = EnvMap::load(&shipped_envmap("studio.hdr"), 1.0, Mat4::IDENTITY).unwrap();
     assert_eq!((exr.width(), exr.height()), (hdr.width(), hdr.height()));
     let mean = |e: &EnvMap| {
         let mut s = [0.0f64; 3];
@@ -317,8 +311,8 @@ fn studio_exr_and_hdr_agree() {
 fn corrupt_or_missing_files_are_errors_naming_the_file() {
     let dir = std::env::temp_dir().join(format!("caustica-light-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let exr_bytes = std::fs::read(shared_envmap("studio.exr")).unwrap();
-    let hdr_bytes = std::fs::read(shared_envmap("studio.hdr")).unwrap();
+    let exr_bytes = std::fs::read(shipped_envmap("studio.exr")).unwrap();
+    let hdr_bytes = std::fs::read(shipped_envmap("studio.hdr")).unwrap();
     let mut garbage = Vec::new();
     let mut s = Sampler::for_key(48, 0, 0);
     garbage.extend((0..4096).map(|_| s.next_u32() as u8));

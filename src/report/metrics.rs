@@ -145,7 +145,7 @@ impl Region {
         )
     }
 
-    /// The caustic region of the cornell-caustics reference (`/work/shared/reference/cornell-caustics`):
+    /// The caustic region of the cornell-caustics reference (`scenes/reference/cornell-caustics/`):
     /// rows 86%–94%, columns 62%–80%. At 256×256 this is x ∈ [158, 205), y ∈ [220, 241).
     pub fn cornell_caustic(width: u32, height: u32) -> Result<Self, MetricsError> {
         Self::from_fractions("caustic", width, height, 0.62, 0.86, 0.80, 0.94)

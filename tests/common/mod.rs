@@ -25,30 +25,18 @@ pub fn repo_path(rel: &str) -> PathBuf {
 /// Samples per pixel of the Mitsuba 3 reference of `scenes/cornell-caustics.toml`.
 pub const REFERENCE_SPP: f64 = 9984.0;
 
-const REFERENCE_REL: &str = "shared/reference/cornell-caustics/mitsuba-path-9984spp.exr";
+const REFERENCE_REL: &str = "scenes/reference/cornell-caustics/mitsuba-path-9984spp.exr";
 
-/// The reference (256×256, 9,984 spp) lives outside the repository: CI checks the repository out with
-/// `shared/` beside it, i.e. `$CARGO_MANIFEST_DIR/../shared/...`. A git worktree one level deeper
-/// (`<root>/wt/<name>`) finds it further up, so the ancestors of the manifest directory are tried in order,
-/// nearest first. `Err` lists every path tried.
-pub fn reference_path() -> Result<PathBuf, String> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let tried: Vec<PathBuf> = root.ancestors().skip(1).map(|dir| dir.join(REFERENCE_REL)).collect();
-    tried.iter().find(|p| p.is_file()).cloned().ok_or_else(|| {
-        let list: Vec<String> = tried.iter().map(|p| p.display().to_string()).collect();
-        list.join(", ")
-    })
+/// The reference (256×256, 9,984 spp), shipped in the repository with its provenance
+/// (`scenes/reference/cornell-caustics/README.md`).
+pub fn reference_path() -> PathBuf {
+    repo_path(REFERENCE_REL)
 }
 
 /// Loads the reference; its absence is a test failure, not a skip (the test would otherwise pass
 /// without checking anything).
 pub fn load_reference() -> Image {
-    let path = reference_path().unwrap_or_else(|tried| {
-        panic!(
-            "the Mitsuba reference is missing: these tests need the `shared/` folder beside the repository \
-             (tried {tried}); they do not skip without it"
-        )
-    });
+    let path = reference_path();
     read_exr(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()))
 }
 
