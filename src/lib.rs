@@ -12,7 +12,7 @@ pub mod accel;
 pub mod bench;
 pub mod bsdf;
 pub mod camera;
-pub mod cmd;
+pub mod cli;
 pub mod error;
 pub mod film;
 pub mod integrator;

@@ -21,6 +21,7 @@ use crate::integrator::{CausticEstimator, PathStats, PathTracer};
 use crate::photon::kdtree::KnnResult;
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
+use crate::scene::settings::defaults;
 use crate::scene::{Estimator, Scene};
 
 /// Tile edge in pixels.
@@ -45,22 +46,10 @@ pub struct RenderSettings {
     pub photon_growth: f64,
 }
 
-/// Default photon count for an image: one per pixel of the crop window, at least 100,000.
-#[must_use]
-pub fn default_photons(pixels: u64) -> u64 {
-    pixels.max(100_000)
-}
-
-/// Default maximum search radius: 5% of the scene's bounding radius.
-#[must_use]
-pub fn default_max_radius(scene: &Scene) -> f32 {
-    let (_, r) = scene.bounds.bounding_sphere();
-    (0.05 * r).max(1e-6)
-}
-
 impl RenderSettings {
-    /// The settings the scene file asks for, with the defaults above where it is silent: one pass of
-    /// `samples_per_pixel`, no time limit.
+    /// The settings the scene file asks for (already checked by the scene loader), with the defaults of
+    /// [`crate::scene::settings::defaults`] where it is silent: one pass of `samples_per_pixel`, no time
+    /// limit.
     #[must_use]
     pub fn from_scene(scene: &Scene) -> Self {
         let integ = &scene.integrator;
@@ -68,7 +57,7 @@ impl RenderSettings {
         let (x0, y0, x1, y1) = scene.camera.crop();
         let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
         RenderSettings {
-            spp: integ.samples_per_pixel.max(1),
+            spp: integ.samples_per_pixel,
             pass_spp: u32::MAX,
             time_limit: None,
             seed: integ.seed,
@@ -76,11 +65,11 @@ impl RenderSettings {
             photons: match (caus.photons, caus.caustic_photons) {
                 (Some(n), _) => PhotonBudget::Emitted(n),
                 (None, Some(m)) => PhotonBudget::Stored(m),
-                (None, None) => PhotonBudget::Emitted(default_photons(pixels)),
+                (None, None) => PhotonBudget::Emitted(defaults::photons(pixels)),
             },
-            knn: caus.knn.max(1),
-            max_radius: caus.max_radius.unwrap_or_else(|| default_max_radius(scene)),
-            photon_growth: 1.0,
+            knn: caus.knn,
+            max_radius: caus.max_radius.unwrap_or_else(|| defaults::max_radius(scene.bounds.bounding_sphere().1)),
+            photon_growth: defaults::PHOTON_GROWTH,
         }
     }
 

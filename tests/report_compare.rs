@@ -4,7 +4,13 @@ use std::path::{Path, PathBuf};
 
 use caustica::film::{write_exr, Image};
 use caustica::math::Vec3;
-use caustica::report::compare::{evaluate, format_table, run, CompareArgs, CompareReport};
+use caustica::cli::compare::{run, CompareArgs};
+use caustica::report::compare::{format_table, CompareReport};
+
+/// The library's evaluation of what `compare` was asked.
+fn evaluate(args: &CompareArgs) -> anyhow::Result<CompareReport> {
+    caustica::report::compare::evaluate(&args.image, &args.reference, &args.regions, args.block)
+}
 use clap::Parser;
 
 #[derive(clap::Parser)]

@@ -39,7 +39,7 @@ pub trait Accel: Send + Sync {
 }
 
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BackendKind {
     Embree,
@@ -47,6 +47,9 @@ pub enum BackendKind {
 }
 
 impl BackendKind {
+    /// Every backend kind (compiled in or not).
+    pub const ALL: [BackendKind; 2] = [BackendKind::Embree, BackendKind::Bvh];
+
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -63,6 +66,13 @@ impl BackendKind {
         } else {
             BackendKind::Bvh
         }
+    }
+}
+
+impl std::str::FromStr for BackendKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        BackendKind::ALL.into_iter().find(|b| b.name() == s).ok_or_else(|| format!("unknown backend {s:?} (embree or bvh)"))
     }
 }
 

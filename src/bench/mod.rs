@@ -1,4 +1,4 @@
-//! `caustica bench`: build time and ray throughput of the intersection backends on meshes, and how
+//! The measurements of `caustica bench`: build time and ray throughput of the intersection backends on meshes, and how
 //! closely the backends agree.
 //!
 //! ```text
@@ -14,7 +14,6 @@
 //! (`EmbreeAccel::intersect_raw_baseline`) to show what our wrapper costs. When two backends are built,
 //! every primary/incoherent hit and every shadow answer is compared.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -29,26 +28,6 @@ use self::rays::{RaySets, CHUNK};
 use crate::accel::{build_accel, embree_version, Accel, BackendKind, Hit};
 use crate::math::Ray;
 use crate::mesh::{load_mesh, TriangleMesh};
-
-/// Arguments of `caustica bench`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct BenchArgs {
-    /// Mesh files (.obj, .ply, .ply.gz) to benchmark, each on its own.
-    #[arg(required = true, value_name = "MESH_OR_SCENE")]
-    pub inputs: Vec<PathBuf>,
-    /// Rays per ray set (the primary set uses the nearest square image made of whole 16×16 tiles).
-    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
-    pub rays: u64,
-    /// Worker threads for building and tracing [default: all cores].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
-    pub threads: Option<u64>,
-    /// Also write the results as JSON to this file (atomically).
-    #[arg(long, value_name = "OUT")]
-    pub json: Option<PathBuf>,
-    /// Backends to measure, comma-separated [default: embree,bvh when Embree is compiled in, else bvh].
-    #[arg(long, value_delimiter = ',', value_name = "LIST")]
-    pub backends: Option<Vec<BackendKind>>,
-}
 
 /// Timed repetitions; the median is reported.
 const RUNS: usize = 3;
@@ -112,38 +91,23 @@ pub struct Agreement {
     pub shadow_disagreements: usize,
 }
 
-/// Runs the benchmark, prints the table, and writes the JSON report if asked.
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    let threads = match args.threads {
-        Some(n) => usize::try_from(n).context("--threads is too large")?,
-        None => std::thread::available_parallelism().map_or(1, usize::from),
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .context("cannot start the worker threads")?;
-    let backends = backend_list(args.backends.as_deref());
-    let rays = usize::try_from(args.rays).context("--rays is too large")?;
-
+/// Measures every input (each on its own) with `backends` (`None`: embree and bvh when Embree is
+/// compiled in, else bvh) on ray sets of `rays` rays, on `pool`. Prints one line per input loaded.
+pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], rays: usize, backends: Option<&[BackendKind]>) -> anyhow::Result<BenchReport> {
+    let backends = backend_list(backends);
     let mut report = BenchReport {
         threads: pool.current_num_threads(),
         inputs: Vec::new(),
     };
-    for path in &args.inputs {
+    for path in inputs {
         let start = Instant::now();
         let (name, mesh) = load_input(path)?;
         let load_seconds = start.elapsed().as_secs_f64();
         eprintln!("{name}: {} triangles, loaded in {load_seconds:.3} s", mesh.triangle_count());
-        let input = bench_input(&pool, name, &mesh, load_seconds, rays, &backends)?;
+        let input = bench_input(pool, name, &mesh, load_seconds, rays, &backends)?;
         report.inputs.push(input);
     }
-    print!("{}", format_table(&report));
-    if let Some(out) = &args.json {
-        let json = serde_json::to_string_pretty(&report).context("cannot serialise the report")?;
-        write_atomically(out, json.as_bytes()).with_context(|| format!("cannot write {}", out.display()))?;
-        eprintln!("wrote {}", out.display());
-    }
-    Ok(())
+    Ok(report)
 }
 
 /// Loads one benchmark input as a single triangle soup, with the name shown in the report.
@@ -413,24 +377,6 @@ pub fn format_table(report: &BenchReport) -> String {
     s
 }
 
-/// Writes `bytes` to a temporary file next to `path`, then renames it over `path`.
-fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
-    let tmp = path.with_file_name(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
-    let result = (|| {
-        let mut file = std::fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        file.write_all(b"\n")?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
 
 #[cfg(test)]
 mod tests {

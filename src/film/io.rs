@@ -24,10 +24,12 @@ pub enum ImageError {
     Png { path: PathBuf, source: ::image::ImageError },
     #[error("{path}: image size {width}×{height} is not supported (empty, or over u32 pixels per side)")]
     Size { path: PathBuf, width: usize, height: usize },
+    #[error("{path}: cannot serialise as JSON: {source}")]
+    Json { path: PathBuf, source: serde_json::Error },
 }
 
 /// The tone curve applied (after exposure) before the sRGB encoding of [`write_png`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Tonemap {
     /// No curve: values are clamped to [0, 1].
@@ -41,6 +43,19 @@ pub enum Tonemap {
 }
 
 impl Tonemap {
+    /// Every curve.
+    pub const ALL: [Tonemap; 3] = [Tonemap::Clamp, Tonemap::Reinhard, Tonemap::Aces];
+
+    /// The name used on the command line and in JSON.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Tonemap::Clamp => "clamp",
+            Tonemap::Reinhard => "reinhard",
+            Tonemap::Aces => "aces",
+        }
+    }
+
     /// Maps a linear, exposed channel value to [0, 1]. NaN and negative values map to 0.
     #[must_use]
     pub fn apply(self, x: f32) -> f32 {
@@ -76,6 +91,13 @@ pub fn srgb_oetf(linear: f32) -> f32 {
         12.92 * linear
     } else {
         1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+impl std::str::FromStr for Tonemap {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Tonemap::ALL.into_iter().find(|t| t.name() == s).ok_or_else(|| format!("unknown tone mapping {s:?} (clamp, reinhard or aces)"))
     }
 }
 
@@ -243,6 +265,13 @@ pub fn write_bytes_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), Im
         path: path.to_owned(),
         source,
     })
+}
+
+/// Writes `value` as pretty-printed JSON to `path` atomically.
+pub fn write_json_atomic<T: serde::Serialize>(path: impl AsRef<Path>, value: &T) -> Result<(), ImageError> {
+    let path = path.as_ref();
+    let text = serde_json::to_string_pretty(value).map_err(|source| ImageError::Json { path: path.to_owned(), source })?;
+    write_bytes_atomic(path, text.as_bytes())
 }
 
 #[cfg(test)]

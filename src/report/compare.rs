@@ -1,37 +1,17 @@
-//! `caustica compare IMAGE REFERENCE [--region name=x0,y0,x1,y1]... [--block 16] [--json out.json]`:
-//! error metrics of a render against a reference (both OpenEXR, same size), printed as a table and
+//! What `caustica compare IMAGE REFERENCE [--region name=x0,y0,x1,y1]... [--block 16] [--json out.json]`
+//! computes: error metrics of a render against a reference (both OpenEXR, same size), printed as a table and
 //! optionally written as JSON (atomically). The metrics are defined in [`super::metrics`].
 //!
 //! Region values are pixel indices or percentages of the image size, e.g. the cornell-caustics
 //! reference's caustic region is `--region caustic=62%,86%,80%,94%`.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
 use super::metrics::{compare, Comparison, Metrics, Region};
-use crate::film::io::write_bytes_atomic;
 use crate::film::read_exr;
-
-/// Arguments of `caustica compare`.
-#[derive(clap::Args, Clone, Debug, PartialEq, Eq)]
-pub struct CompareArgs {
-    /// The image to evaluate (OpenEXR).
-    pub image: PathBuf,
-    /// The reference image (OpenEXR, same size).
-    pub reference: PathBuf,
-    /// A region to report separately, `x0,y0,x1,y1` or `name=x0,y0,x1,y1` (exclusive ends; values in
-    /// pixels or percentages like `62%`; clipped to the image). Repeatable.
-    #[arg(long = "region")]
-    pub regions: Vec<String>,
-    /// Block size in pixels for the block-mean RMSE.
-    #[arg(long, default_value_t = 16)]
-    pub block: u32,
-    /// Also write the metrics as JSON to this file.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-}
 
 /// The JSON document written by `--json`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -42,33 +22,20 @@ pub struct CompareReport {
     pub comparison: Comparison,
 }
 
-/// Reads both images, computes the metrics, prints the table, and writes the JSON if asked.
-pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
-    let report = evaluate(args)?;
-    print!("{}", format_table(&report));
-    if let Some(path) = &args.json {
-        let bytes = serde_json::to_vec_pretty(&report).context("serialising the comparison")?;
-        write_bytes_atomic(path, &bytes)?;
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-/// The work of [`run`] without printing or writing: read, parse the regions, compare.
-pub fn evaluate(args: &CompareArgs) -> anyhow::Result<CompareReport> {
-    let image = read_exr(&args.image)?;
-    let reference = read_exr(&args.reference)?;
-    let regions = args
-        .regions
+/// Reads both images, parses the region specs against the image's size, and compares.
+pub fn evaluate(image_path: &Path, reference_path: &Path, region_specs: &[String], block: u32) -> anyhow::Result<CompareReport> {
+    let image = read_exr(image_path)?;
+    let reference = read_exr(reference_path)?;
+    let regions = region_specs
         .iter()
         .map(|spec| Region::parse(spec, image.width(), image.height()))
         .collect::<Result<Vec<_>, _>>()
-        .with_context(|| format!("{}: bad --region", args.image.display()))?;
-    let comparison = compare(&image, &reference, &regions, args.block)
-        .with_context(|| format!("comparing {} with {}", args.image.display(), args.reference.display()))?;
+        .with_context(|| format!("{}: bad --region", image_path.display()))?;
+    let comparison = compare(&image, &reference, &regions, block)
+        .with_context(|| format!("comparing {} with {}", image_path.display(), reference_path.display()))?;
     Ok(CompareReport {
-        image: args.image.clone(),
-        reference: args.reference.clone(),
+        image: image_path.to_owned(),
+        reference: reference_path.to_owned(),
         comparison,
     })
 }

@@ -1,6 +1,6 @@
-//! `caustica converge SCENE.toml --reference REF.exr [--estimators pt,pm,mis] [--time-budget S]
-//! [--region name=x0,y0,x1,y1]... -o DIR`: error against time for each caustic estimator at equal
-//! wall-clock budget.
+//! The work of `caustica converge SCENE.toml --reference REF.exr [--estimators pt,pm,mis] [--time-budget S]
+//! [--region name=x0,y0,x1,y1]... -o DIR` (the command line is `cli::converge`): error against time for
+//! each caustic estimator at equal wall-clock budget.
 //!
 //! Each estimator renders progressively (passes of `--pass-spp` samples, a fresh photon map per pass for
 //! `pm`/`mis`, the film averaging all passes) until `--time-budget` seconds of rendering are spent; after
@@ -8,7 +8,7 @@
 //! [`crate::render::PassInfo::seconds`]).
 //!
 //! **Photon growth.** Pass `p` (from 0) traces `photons × G^p` photons (`--photon-growth G`, default
-//! [`DEFAULT_PHOTON_GROWTH`]). With k fixed, the k-NN radius shrinks like `N^{-1/2}`, so the kernel bias
+//! [`crate::scene::settings::defaults::PHOTON_GROWTH_CONVERGE`]). With k fixed, the k-NN radius shrinks like `N^{-1/2}`, so the kernel bias
 //! of pass p falls like `G^{-p}`; the film's average of the passes then has a bias that falls like `1/P`
 //! after P passes, while a constant budget (G = 1) would keep the first pass's bias for ever. The photon
 //! pass's cost grows like `G^p` too, but it is small next to the eye passes at the budgets used here
@@ -22,29 +22,24 @@
 //! (the time each estimator needs to reach given errors), and `summary.json`.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
-use anyhow::{bail, Context as _};
+use anyhow::Context as _;
 use serde::Serialize;
 
-use super::error_log::{progress_text, ErrorTracker, PassError};
+use super::error_log::{ErrorTracker, PassError};
 use super::plot::{error_plot, side_by_side, Panel, Series};
-use crate::accel::{build_accel, BackendKind};
-use crate::cmd::photon_args::PhotonArgs;
-use crate::cmd::render::{photon_growth, set_resolution, write_json_atomic};
+use crate::accel::Accel;
 use crate::film::io::write_bytes_atomic;
-use crate::film::{write_exr, write_png, Film, Image, Rect, Tonemap};
+use crate::film::{Film, Image, Rect, Tonemap};
 use crate::photon::PhotonBudget;
-use crate::render::{render, RenderPhaseStats, RenderSettings};
+use crate::render::{render, PassInfo, RenderPhaseStats, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
-/// Photon budget growth per pass of `converge` (see the module documentation).
-pub const DEFAULT_PHOTON_GROWTH: f64 = 1.1;
 
 /// Which error the time-to-error table and the targets use.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ErrorMetric {
     #[default]
@@ -53,7 +48,10 @@ pub enum ErrorMetric {
 }
 
 impl ErrorMetric {
-    fn name(self) -> &'static str {
+    pub const ALL: [ErrorMetric; 2] = [ErrorMetric::Rmse, ErrorMetric::Relmse];
+
+    #[must_use]
+    pub fn name(self) -> &'static str {
         match self {
             ErrorMetric::Rmse => "rmse",
             ErrorMetric::Relmse => "relmse",
@@ -68,64 +66,11 @@ impl ErrorMetric {
     }
 }
 
-/// Arguments of `caustica converge`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct ConvergeArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
-    /// The reference image (OpenEXR, the render's size), e.g. a long `render --estimator pt` render.
-    #[arg(long)]
-    pub reference: PathBuf,
-    /// Output directory (created if missing).
-    #[arg(short = 'o', long = "output")]
-    pub output: PathBuf,
-    /// Caustic estimators to compare, comma-separated.
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "pt,pm,mis")]
-    pub estimators: Vec<Estimator>,
-    /// Seconds of rendering per estimator (whole passes: the last one may run over).
-    #[arg(long, default_value_t = 30.0)]
-    pub time_budget: f64,
-    /// A region to report separately, `name=x0,y0,x1,y1` (pixels or percentages, exclusive ends). Repeatable.
-    #[arg(long = "region")]
-    pub regions: Vec<String>,
-    /// Samples per pixel of one pass.
-    #[arg(long, default_value_t = 4)]
-    pub pass_spp: u32,
-    /// Photon budget growth per pass: pass p uses photons × G^p.
-    #[arg(long, default_value_t = DEFAULT_PHOTON_GROWTH)]
-    pub photon_growth: f64,
-    #[command(flatten)]
-    pub photon: PhotonArgs,
-    #[arg(long)]
-    pub seed: Option<u64>,
-    #[arg(long)]
-    pub width: Option<u32>,
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    #[arg(long, value_enum)]
-    pub backend: Option<BackendKind>,
-    /// Errors to reach, for the time-to-error table (repeatable). Default: the largest and smallest final
-    /// error among the estimators and their geometric mean.
-    #[arg(long = "target-error")]
-    pub target_errors: Vec<f64>,
-    /// The region (a --region name) the time-to-error table measures; default the whole image.
-    #[arg(long)]
-    pub target_region: Option<String>,
-    /// The error measure of the time-to-error table.
-    #[arg(long, value_enum, default_value_t = ErrorMetric::Rmse)]
-    pub target_metric: ErrorMetric,
-    /// Exposure of the PNG images, in stops.
-    #[arg(long, default_value_t = 0.0)]
-    pub exposure: f32,
-    /// Tone mapping of the PNG images.
-    #[arg(long, value_enum, default_value_t = Tonemap::Clamp)]
-    pub tonemap: Tonemap,
-    /// No per-pass progress lines.
-    #[arg(long, short = 'q')]
-    pub quiet: bool,
+impl std::str::FromStr for ErrorMetric {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        ErrorMetric::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| format!("unknown error metric {s:?} (rmse or relmse)"))
+    }
 }
 
 /// One estimator's run.
@@ -164,26 +109,6 @@ pub struct TimeToErrorTable {
     pub region: Option<String>,
     pub targets: Vec<f64>,
     pub rows: Vec<TimeToError>,
-}
-
-/// `summary.json`.
-#[derive(Debug, Serialize)]
-struct Summary<'a> {
-    scene: String,
-    reference: String,
-    width: u32,
-    height: u32,
-    time_budget: f64,
-    pass_spp: u32,
-    photon_growth: f64,
-    photons: String,
-    knn: u32,
-    max_radius: f32,
-    seed: u64,
-    threads: usize,
-    backend: &'static str,
-    runs: &'a [EstimatorRun],
-    time_to_error: &'a TimeToErrorTable,
 }
 
 /// The time at which the error series `points` (seconds, error; in time order) first reaches `target`:
@@ -260,7 +185,8 @@ pub fn format_time_to_error(table: &TimeToErrorTable, estimators: &[Estimator]) 
     s
 }
 
-fn time_to_error_csv(table: &TimeToErrorTable) -> String {
+#[must_use]
+pub fn time_to_error_csv(table: &TimeToErrorTable) -> String {
     let mut s = String::from("metric,region,target,estimator,seconds,ratio_to_fastest\n");
     let opt = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:.6}"));
     for r in &table.rows {
@@ -269,155 +195,56 @@ fn time_to_error_csv(table: &TimeToErrorTable) -> String {
     s
 }
 
-fn describe_budget(b: PhotonBudget) -> String {
+#[must_use]
+pub fn describe_budget(b: PhotonBudget) -> String {
     match b {
         PhotonBudget::Emitted(n) => format!("{n} emitted"),
         PhotonBudget::Stored(m) => format!("{m} stored"),
     }
 }
 
-/// Runs `caustica converge`.
-pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
-    // Check every argument before any rendering.
-    if !(args.time_budget.is_finite() && args.time_budget > 0.0) {
-        bail!("--time-budget must be a positive number of seconds, got {}", args.time_budget);
-    }
-    if args.estimators.is_empty() {
-        bail!("--estimators: give at least one of pt, pm, mis");
-    }
-    for (i, e) in args.estimators.iter().enumerate() {
-        if args.estimators[..i].contains(e) {
-            bail!("--estimators: {} is listed twice", e.name());
-        }
-    }
-    if args.pass_spp == 0 {
-        bail!("--pass-spp must be ≥ 1");
-    }
-    if let Some(t) = args.target_errors.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
-        bail!("--target-error must be a positive number, got {t}");
-    }
-    let growth = photon_growth(args.photon_growth)?;
-    args.photon.validate()?;
-    let mut scene = Scene::load(&args.scene)?;
-    set_resolution(&mut scene, args.width, args.height)?;
+/// Renders `scene` with `settings` (a time-limited, progressive render) on the current rayon pool,
+/// comparing the film with the reference after every pass (`tracker`, a fresh clone per estimator);
+/// `on_row` sees every pass's figures. The comparison's own time is not counted (see
+/// [`crate::render::PassInfo::seconds`]).
+pub fn run_estimator(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings, mut tracker: ErrorTracker, cancel: &AtomicBool, mut on_row: impl FnMut(&PassInfo, &PassError)) -> anyhow::Result<EstimatorRun> {
     let (x0, y0, x1, y1) = scene.camera.crop();
-    let (width, height) = (x1 - x0, y1 - y0);
-    let template = ErrorTracker::load(&args.reference, &args.regions)?;
-    template.check_size(width, height, &args.reference)?;
-    if let Some(name) = &args.target_region {
-        if !template.regions().iter().any(|r| &r.name == name) {
-            bail!("--target-region {name:?}: no --region of that name");
-        }
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
+    let mut metric_error: Option<anyhow::Error> = None;
+    let stats = render(
+        scene,
+        accel,
+        settings,
+        &mut film,
+        cancel,
+        |film, info| match tracker.record(&film.image(), info) {
+            Ok(row) => on_row(info, row),
+            Err(e) => {
+                metric_error.get_or_insert(anyhow::Error::new(e).context("comparing with --reference"));
+            }
+        },
+        &|_| {},
+    )?;
+    if let Some(e) = metric_error {
+        return Err(e);
     }
-
-    let mut base = RenderSettings::from_scene(&scene);
-    base.pass_spp = args.pass_spp;
-    base.time_limit = Some(args.time_budget);
-    base.photon_growth = growth;
-    args.photon.apply(&mut base);
-    if let Some(s) = args.seed {
-        base.seed = s;
-    }
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
-    let backend = args.backend.unwrap_or_else(BackendKind::default_available);
-    std::fs::create_dir_all(&args.output).with_context(|| format!("-o {}: cannot create the directory", args.output.display()))?;
-
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("creating the worker threads")?;
-    let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
-    let cancel = AtomicBool::new(false);
-
-    let mut runs: Vec<EstimatorRun> = Vec::new();
-    for &estimator in &args.estimators {
-        let mut settings = base.clone();
-        settings.estimator = estimator;
-        let mut tracker = template.clone();
-        let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
-        let mut metric_error: Option<anyhow::Error> = None;
-        if !args.quiet {
-            eprintln!("converge: {} for {} s ({} spp per pass, photons {} × {growth}^pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
-        }
-        let t = Instant::now();
-        let stats = pool.install(|| {
-            render(
-                &scene,
-                accel.as_ref(),
-                &settings,
-                &mut film,
-                &cancel,
-                |film, info| match tracker.record(&film.image(), info) {
-                    Ok(row) => {
-                        if !args.quiet {
-                            eprintln!("  {} pass {:>3} {:>8.2} s {:>5} spp {:>11} photons  {}", estimator.name(), info.pass, info.seconds, info.spp, info.photons_emitted, progress_text(row));
-                        }
-                    }
-                    Err(e) => {
-                        metric_error.get_or_insert(anyhow::Error::new(e).context("comparing with --reference"));
-                    }
-                },
-                &|_| {},
-            )
-        })?;
-        if let Some(e) = metric_error {
-            return Err(e);
-        }
-        let wall = t.elapsed().as_secs_f64();
-        let rows = tracker.rows().to_vec();
-        let last = rows.last().cloned();
-        let image = film.image();
-        let stem = args.output.join(estimator.name());
-        write_exr(stem.with_extension("exr"), &image)?;
-        write_png(stem.with_extension("png"), &image, args.exposure, args.tonemap)?;
-        if !args.quiet {
-            eprintln!("converge: {} done: {} passes, {} spp, {:.2} s rendering ({wall:.2} s with error evaluation)", estimator.name(), stats.passes, stats.spp, last.as_ref().map_or(0.0, |r| r.seconds));
-        }
-        runs.push(EstimatorRun {
-            estimator,
-            seconds: last.as_ref().map_or(0.0, |r| r.seconds),
-            spp: stats.spp,
-            passes: stats.passes,
-            photons_emitted: stats.photons_emitted,
-            photons_stored: stats.photons_stored,
-            final_error: last,
-            stats,
-            rows,
-            image,
-        });
-        // errors.csv grows after every estimator, so a long run can be inspected while it goes on.
-        write_errors_csv(&args.output.join("errors.csv"), &template, &runs)?;
-    }
-
-    write_plots(&args.output, &template, &runs)?;
-    write_side_by_side(&args.output, &template, &runs, args.exposure, args.tonemap)?;
-
-    let table = time_to_error_table(&runs, args.target_metric, args.target_region.as_deref(), &args.target_errors);
-    let text = format_time_to_error(&table, &args.estimators);
-    println!("{}", format_final_table(&runs, &template));
-    print!("{text}");
-    write_bytes_atomic(args.output.join("time-to-error.csv"), time_to_error_csv(&table).as_bytes())?;
-    write_json_atomic(&args.output.join("time-to-error.json"), &table)?;
-    let summary = Summary {
-        scene: args.scene.display().to_string(),
-        reference: args.reference.display().to_string(),
-        width,
-        height,
-        time_budget: args.time_budget,
-        pass_spp: args.pass_spp,
-        photon_growth: growth,
-        photons: describe_budget(base.photons),
-        knn: base.knn,
-        max_radius: base.max_radius,
-        seed: base.seed,
-        threads,
-        backend: backend.name(),
-        runs: &runs,
-        time_to_error: &table,
-    };
-    write_json_atomic(&args.output.join("summary.json"), &summary)?;
-    println!("wrote {}", args.output.display());
-    Ok(())
+    let rows = tracker.rows().to_vec();
+    let last = rows.last().cloned();
+    Ok(EstimatorRun {
+        estimator: settings.estimator,
+        seconds: last.as_ref().map_or(0.0, |r| r.seconds),
+        spp: stats.spp,
+        passes: stats.passes,
+        photons_emitted: stats.photons_emitted,
+        photons_stored: stats.photons_stored,
+        final_error: last,
+        stats,
+        rows,
+        image: film.image(),
+    })
 }
 
-fn write_errors_csv(path: &Path, template: &ErrorTracker, runs: &[EstimatorRun]) -> anyhow::Result<()> {
+pub fn write_errors_csv(path: &Path, template: &ErrorTracker, runs: &[EstimatorRun]) -> anyhow::Result<()> {
     let mut csv = template.csv_header(true);
     for run in runs {
         let mut t = template.clone();
@@ -430,7 +257,8 @@ fn write_errors_csv(path: &Path, template: &ErrorTracker, runs: &[EstimatorRun])
 }
 
 /// The final figures of every run: time, spp, photons, RMSE / relMSE overall and per region.
-fn format_final_table(runs: &[EstimatorRun], template: &ErrorTracker) -> String {
+#[must_use]
+pub fn format_final_table(runs: &[EstimatorRun], template: &ErrorTracker) -> String {
     let mut s = String::new();
     let _ = write!(s, "{:<10} {:>9} {:>6} {:>7} {:>12} {:>11} {:>11}", "estimator", "seconds", "spp", "passes", "photons", "rmse", "relmse");
     for r in template.regions() {
@@ -449,7 +277,7 @@ fn format_final_table(runs: &[EstimatorRun], template: &ErrorTracker) -> String 
     s
 }
 
-fn write_plots(dir: &Path, template: &ErrorTracker, runs: &[EstimatorRun]) -> anyhow::Result<()> {
+pub fn write_plots(dir: &Path, template: &ErrorTracker, runs: &[EstimatorRun]) -> anyhow::Result<()> {
     let mut targets: Vec<(Option<&str>, String)> = vec![(None, "error".to_string())];
     for r in template.regions() {
         targets.push((Some(r.name.as_str()), format!("error-{}", r.name)));
@@ -470,7 +298,7 @@ fn write_plots(dir: &Path, template: &ErrorTracker, runs: &[EstimatorRun]) -> an
     Ok(())
 }
 
-fn write_side_by_side(dir: &Path, template: &ErrorTracker, runs: &[EstimatorRun], exposure: f32, tonemap: Tonemap) -> anyhow::Result<()> {
+pub fn write_side_by_side(dir: &Path, template: &ErrorTracker, runs: &[EstimatorRun], exposure: f32, tonemap: Tonemap) -> anyhow::Result<()> {
     let label = |run: &EstimatorRun, region: Option<&str>| -> String {
         let e = run.final_error.as_ref().and_then(|e| e.rmse_of(region)).unwrap_or(f64::NAN);
         format!("{} ({} spp)\n{:.1} s, RMSE {:.2e}", run.estimator.name(), run.spp, run.seconds, e)

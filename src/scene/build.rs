@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorType, ShapeDesc, ShapeType};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
-use super::settings::{CausticsSettings, IntegratorSettings};
+use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix};
 use super::Scene;
@@ -191,37 +191,31 @@ pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Sc
 
 fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<IntegratorSettings, SceneError> {
     let d = &file.integrator;
-    if d.max_depth < -1 {
-        return Err(ctx.key_error(
-            "integrator.max_depth",
-            format!("must be -1 (unlimited) or ≥ 0, got {}", d.max_depth),
-        ));
-    }
-    if d.rr_depth == 0 {
-        return Err(ctx.key_error("integrator.rr_depth", "must be ≥ 1"));
-    }
-    if d.samples_per_pixel == 0 {
-        return Err(ctx.key_error("integrator.samples_per_pixel", "must be ≥ 1"));
-    }
+    let key_check = |key: &str, r: Result<(), check::Invalid>| r.map_err(|e| ctx.key_error(key, e.0));
+    key_check("integrator.max_depth", check::max_depth(d.max_depth))?;
+    key_check("integrator.rr_depth", check::rr_depth(d.rr_depth))?;
+    key_check("integrator.samples_per_pixel", check::spp(d.samples_per_pixel))?;
     let caustics = match &d.caustics {
         None => CausticsSettings::default(),
         Some(c) => {
-            if c.photons == Some(0) {
-                return Err(ctx.key_error("integrator.caustics.photons", "must be ≥ 1"));
+            if let Some(n) = c.photons {
+                key_check("integrator.caustics.photons", check::photons(n))?;
             }
-            if c.caustic_photons == Some(0) {
-                return Err(ctx.key_error("integrator.caustics.caustic_photons", "must be ≥ 1"));
+            if let Some(m) = c.caustic_photons {
+                key_check("integrator.caustics.caustic_photons", check::photons(m))?;
             }
             if c.photons.is_some() && c.caustic_photons.is_some() {
                 return Err(ctx.key_error("integrator.caustics.caustic_photons", "give either photons or caustic_photons, not both"));
             }
-            if c.knn == 0 {
-                return Err(ctx.key_error("integrator.caustics.knn", "must be ≥ 1"));
-            }
-            let max_radius = c
-                .max_radius
-                .map(|r| ctx.positive("integrator.caustics.max_radius", r, "max_radius"))
-                .transpose()?;
+            key_check("integrator.caustics.knn", check::knn(c.knn))?;
+            let max_radius = match c.max_radius {
+                Some(r) => {
+                    ctx.finite("integrator.caustics.max_radius", r)?;
+                    key_check("integrator.caustics.max_radius", check::max_radius(r))?;
+                    Some(r)
+                }
+                None => None,
+            };
             CausticsSettings {
                 estimator: c.estimator,
                 photons: c.photons,

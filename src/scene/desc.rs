@@ -13,7 +13,7 @@ use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
 use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize as DeriveDeserialize;
 
-use super::settings::Estimator;
+use super::settings::{defaults, Estimator};
 use crate::camera::FovAxis;
 use crate::math::Vec3;
 
@@ -44,10 +44,10 @@ pub(crate) struct IntegratorDesc {
 impl Default for IntegratorDesc {
     fn default() -> Self {
         Self {
-            max_depth: -1,
-            rr_depth: 5,
-            samples_per_pixel: 16,
-            seed: 0,
+            max_depth: defaults::MAX_DEPTH,
+            rr_depth: defaults::RR_DEPTH,
+            samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
+            seed: defaults::SEED,
             caustics: None,
         }
     }
@@ -69,7 +69,7 @@ impl Default for CausticsDesc {
             estimator: Estimator::Pt,
             photons: None,
             caustic_photons: None,
-            knn: 50,
+            knn: defaults::KNN,
             max_radius: None,
         }
     }

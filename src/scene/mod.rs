@@ -85,7 +85,7 @@ mod desc;
 mod error;
 mod interaction;
 mod material;
-mod settings;
+pub mod settings;
 mod spans;
 mod transform;
 mod validate;

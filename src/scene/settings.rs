@@ -1,6 +1,10 @@
 //! Render settings read from the `[integrator]` table: path depth, samples, seed, and the caustic
 //! estimator (method.md §1). Defaults follow Mitsuba's `path` integrator where it has one.
 //!
+//! This module is the one place where each render setting's default ([`defaults`]) and validity
+//! ([`check`]) are written: the scene file (`scene::build`), the command line (`cli`) and every
+//! subcommand use them, each naming its own key or flag in the error.
+//!
 //! ```toml
 //! [integrator]
 //! max_depth = -1            # -1 = unlimited; otherwise the longest path in segments (Mitsuba's meaning)
@@ -15,8 +19,133 @@
 //! max_radius = 0.1          # optional search-radius cap, scene units (> 0)
 //! ```
 
+/// The default of every render setting.
+pub mod defaults {
+    /// Longest path in segments; -1 = unlimited (Mitsuba's `path` integrator).
+    pub const MAX_DEPTH: i32 = -1;
+    /// Depth at which Russian roulette starts (Mitsuba's `rr_depth`).
+    pub const RR_DEPTH: u32 = 5;
+    /// Samples per pixel of a render without a time limit.
+    pub const SAMPLES_PER_PIXEL: u32 = 16;
+    pub const SEED: u64 = 0;
+    /// k of the k-NN density estimate.
+    pub const KNN: u32 = 50;
+    /// Samples per pixel of one pass of a time-limited render.
+    pub const PASS_SPP_TIME_LIMITED: u32 = 4;
+    /// Photon budget growth per pass of `render` (1 = the same budget every pass).
+    pub const PHOTON_GROWTH: f64 = 1.0;
+    /// Photon budget growth per pass of `converge` (see `report::converge`: the kernel bias then falls
+    /// like 1/P after P passes).
+    pub const PHOTON_GROWTH_CONVERGE: f64 = 1.1;
+
+    /// Photons emitted per pass when neither `photons` nor `caustic_photons` is given: one per pixel of
+    /// the crop window, at least 100,000.
+    #[must_use]
+    pub fn photons(pixels: u64) -> u64 {
+        pixels.max(100_000)
+    }
+
+    /// Maximum k-NN search radius when none is given: 5% of the radius of the scene's bounding sphere.
+    #[must_use]
+    pub fn max_radius(bounding_radius: f32) -> f32 {
+        (0.05 * bounding_radius).max(1e-6)
+    }
+}
+
+/// The validity of every render setting. Each check returns the reason without the key (e.g. "must be
+/// ≥ 1, got 0"); the caller prefixes the scene key or the flag.
+pub mod check {
+    /// Why a value is rejected.
+    #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+    #[error("{0}")]
+    pub struct Invalid(pub String);
+
+    fn at_least_one(v: u64) -> Result<(), Invalid> {
+        if v == 0 {
+            return Err(Invalid("must be ≥ 1, got 0".into()));
+        }
+        Ok(())
+    }
+
+    /// Samples per pixel (`samples_per_pixel`, `--spp`): ≥ 1.
+    pub fn spp(v: u32) -> Result<(), Invalid> {
+        at_least_one(v.into())
+    }
+
+    /// Samples per pixel of one pass (`--pass-spp`): ≥ 1.
+    pub fn pass_spp(v: u32) -> Result<(), Invalid> {
+        at_least_one(v.into())
+    }
+
+    /// Worker threads (`--threads`): ≥ 1.
+    pub fn threads(v: usize) -> Result<(), Invalid> {
+        at_least_one(v as u64)
+    }
+
+    /// Film width or height in pixels: ≥ 1.
+    pub fn resolution(v: u32) -> Result<(), Invalid> {
+        at_least_one(v.into())
+    }
+
+    /// k of the k-NN estimate: ≥ 1.
+    pub fn knn(v: u32) -> Result<(), Invalid> {
+        at_least_one(v.into())
+    }
+
+    /// A photon count per pass (`photons`, `caustic_photons`): ≥ 1 and at most what the kd-tree indexes.
+    pub fn photons(v: u64) -> Result<(), Invalid> {
+        at_least_one(v)?;
+        if v > u64::from(u32::MAX) {
+            return Err(Invalid(format!("at most {} per pass, got {v}", u32::MAX)));
+        }
+        Ok(())
+    }
+
+    /// A positive finite number (`max_radius`, `--time-limit`, `--time-budget`).
+    pub fn positive(v: f64) -> Result<(), Invalid> {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Invalid(format!("must be a finite number > 0, got {v}")));
+        }
+        Ok(())
+    }
+
+    /// The k-NN search radius cap (scene units): positive and finite.
+    pub fn max_radius(v: f32) -> Result<(), Invalid> {
+        positive(v.into())
+    }
+
+    /// Photon budget growth per pass: finite and ≥ 1 (below 1 the kernel bias would grow pass after pass).
+    pub fn photon_growth(v: f64) -> Result<(), Invalid> {
+        if !(v.is_finite() && v >= 1.0) {
+            return Err(Invalid(format!("must be a finite number ≥ 1, got {v}")));
+        }
+        Ok(())
+    }
+
+    /// Longest path in segments: -1 (unlimited) or ≥ 0.
+    pub fn max_depth(v: i32) -> Result<(), Invalid> {
+        if v < -1 {
+            return Err(Invalid(format!("must be -1 (unlimited) or ≥ 0, got {v}")));
+        }
+        Ok(())
+    }
+
+    /// Depth at which Russian roulette starts: ≥ 1.
+    pub fn rr_depth(v: u32) -> Result<(), Invalid> {
+        at_least_one(v.into())
+    }
+
+    /// Exposure of a PNG in stops: finite.
+    pub fn exposure(v: f32) -> Result<(), Invalid> {
+        if !v.is_finite() {
+            return Err(Invalid(format!("must be a finite number of stops, got {v}")));
+        }
+        Ok(())
+    }
+}
+
 /// How caustic paths (L S⁺ x at a non-delta eye vertex x) are estimated (method.md §1).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Estimator {
     /// Plain path tracing, no photon pass.
@@ -29,6 +158,9 @@ pub enum Estimator {
 }
 
 impl Estimator {
+    /// Every estimator, in the order of the documentation.
+    pub const ALL: [Estimator; 3] = [Estimator::Pt, Estimator::Pm, Estimator::Mis];
+
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -36,6 +168,13 @@ impl Estimator {
             Estimator::Pm => "pm",
             Estimator::Mis => "mis",
         }
+    }
+}
+
+impl std::str::FromStr for Estimator {
+    type Err = check::Invalid;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Estimator::ALL.into_iter().find(|e| e.name() == s).ok_or_else(|| check::Invalid(format!("unknown estimator {s:?} (pt, pm or mis)")))
     }
 }
 
@@ -59,7 +198,7 @@ impl Default for CausticsSettings {
             estimator: Estimator::Pt,
             photons: None,
             caustic_photons: None,
-            knn: 50,
+            knn: defaults::KNN,
             max_radius: None,
         }
     }
@@ -80,10 +219,10 @@ pub struct IntegratorSettings {
 impl Default for IntegratorSettings {
     fn default() -> Self {
         Self {
-            max_depth: -1,
-            rr_depth: 5,
-            samples_per_pixel: 16,
-            seed: 0,
+            max_depth: defaults::MAX_DEPTH,
+            rr_depth: defaults::RR_DEPTH,
+            samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
+            seed: defaults::SEED,
             caustics: CausticsSettings::default(),
         }
     }

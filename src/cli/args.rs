@@ -1,0 +1,190 @@
+//! Value parsers and argument groups shared by the subcommands. Every check of a render setting is
+//! the library's ([`crate::scene::settings::check`]); this file only turns its reason into clap's error,
+//! which names the flag and exits with code 2.
+
+use std::str::FromStr;
+
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+
+use crate::accel::BackendKind;
+use crate::film::Tonemap;
+use crate::report::converge::ErrorMetric;
+use crate::scene::settings::check::{self, Invalid};
+use crate::scene::Estimator;
+
+/// A library enum that the command line offers by name.
+pub trait Named: Copy + Send + Sync + 'static {
+    const ALL: &'static [Self];
+    fn name(self) -> &'static str;
+}
+
+impl Named for Estimator {
+    const ALL: &'static [Self] = &Estimator::ALL;
+    fn name(self) -> &'static str {
+        Estimator::name(self)
+    }
+}
+
+impl Named for BackendKind {
+    const ALL: &'static [Self] = &BackendKind::ALL;
+    fn name(self) -> &'static str {
+        BackendKind::name(self)
+    }
+}
+
+impl Named for Tonemap {
+    const ALL: &'static [Self] = &Tonemap::ALL;
+    fn name(self) -> &'static str {
+        Tonemap::name(self)
+    }
+}
+
+impl Named for ErrorMetric {
+    const ALL: &'static [Self] = &ErrorMetric::ALL;
+    fn name(self) -> &'static str {
+        ErrorMetric::name(self)
+    }
+}
+
+/// A parser that offers `T::ALL` by name (shown in `--help`) and returns the value.
+#[must_use]
+pub fn named<T: Named>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(T::ALL.iter().map(|v| v.name())).map(|s: String| T::ALL.iter().copied().find(|v| v.name() == s).unwrap_or(T::ALL[0]))
+}
+
+/// Parses with `FromStr`, then applies the library's check.
+fn checked<T: FromStr + Copy>(s: &str, check: fn(T) -> Result<(), Invalid>) -> Result<T, String>
+where
+    T::Err: std::fmt::Display,
+{
+    let v: T = s.trim().parse().map_err(|e: T::Err| e.to_string())?;
+    check(v).map_err(|e| e.0)?;
+    Ok(v)
+}
+
+pub fn spp(s: &str) -> Result<u32, String> {
+    checked(s, check::spp)
+}
+
+pub fn pass_spp(s: &str) -> Result<u32, String> {
+    checked(s, check::pass_spp)
+}
+
+pub fn threads(s: &str) -> Result<usize, String> {
+    checked(s, check::threads)
+}
+
+pub fn resolution(s: &str) -> Result<u32, String> {
+    checked(s, check::resolution)
+}
+
+pub fn knn(s: &str) -> Result<u32, String> {
+    checked(s, check::knn)
+}
+
+pub fn photons(s: &str) -> Result<u64, String> {
+    checked(s, check::photons)
+}
+
+pub fn max_radius(s: &str) -> Result<f32, String> {
+    checked(s, check::max_radius)
+}
+
+pub fn seconds(s: &str) -> Result<f64, String> {
+    checked(s, check::positive)
+}
+
+pub fn photon_growth(s: &str) -> Result<f64, String> {
+    checked(s, check::photon_growth)
+}
+
+pub fn exposure(s: &str) -> Result<f32, String> {
+    checked(s, check::exposure)
+}
+
+/// The options of how a render runs that `render` and `converge` share.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RunArgs {
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = threads)]
+    pub threads: Option<usize>,
+    /// Seed of the random streams [default: the scene's `integrator.seed`, else 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Intersection backend [default: embree when compiled in, else bvh].
+    #[arg(long, value_parser = named::<BackendKind>())]
+    pub backend: Option<BackendKind>,
+    /// Film width in pixels [default: the scene's].
+    #[arg(long, value_parser = resolution)]
+    pub width: Option<u32>,
+    /// Film height in pixels [default: the scene's].
+    #[arg(long, value_parser = resolution)]
+    pub height: Option<u32>,
+}
+
+impl RunArgs {
+    /// `--threads` or every core.
+    #[must_use]
+    pub fn threads(&self) -> usize {
+        self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
+    }
+
+    /// `--backend` or the default one.
+    #[must_use]
+    pub fn backend(&self) -> BackendKind {
+        self.backend.unwrap_or_else(BackendKind::default_available)
+    }
+
+    /// A rayon pool of [`RunArgs::threads`] workers.
+    pub fn pool(&self) -> anyhow::Result<rayon::ThreadPool> {
+        use anyhow::Context as _;
+        rayon::ThreadPoolBuilder::new().num_threads(self.threads()).build().context("creating the worker threads")
+    }
+
+    /// `--width` / `--height` over the scene's film size (either may be given alone).
+    pub fn set_resolution(&self, scene: &mut crate::scene::Scene) -> anyhow::Result<()> {
+        if self.width.is_some() || self.height.is_some() {
+            let w = self.width.unwrap_or(scene.camera.width());
+            let h = self.height.unwrap_or(scene.camera.height());
+            scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
+        }
+        Ok(())
+    }
+}
+
+/// The options of the PNG images a subcommand writes.
+#[derive(clap::Args, Debug, Clone)]
+pub struct PngArgs {
+    /// Exposure of the PNG images, in stops (a finite number; 0 = as rendered).
+    #[arg(long, default_value_t = 0.0, value_parser = exposure)]
+    pub exposure: f32,
+    /// Tone mapping of the PNG images.
+    #[arg(long, value_parser = named::<Tonemap>(), default_value = "clamp")]
+    pub tonemap: Tonemap,
+}
+
+/// Checks that an output file can be written before anything slow happens: a file name whose directory
+/// exists and that is not a directory itself.
+pub fn check_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    use anyhow::bail;
+    if path.file_name().is_none() {
+        bail!("{flag} {}: not a file name", path.display());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!("{flag} {}: directory {} does not exist", path.display(), dir.display());
+    }
+    if path.is_dir() {
+        bail!("{flag} {}: is a directory", path.display());
+    }
+    Ok(())
+}
+
+/// The scene file's stem (`scenes/cornell.toml` → `cornell`), for default output names.
+#[must_use]
+pub fn scene_stem(scene: &std::path::Path) -> String {
+    scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned())
+}

@@ -1,0 +1,49 @@
+//! `caustica bench MESH_OR_SCENE... [--rays N] [--threads T] [--backends embree,bvh] [--json OUT]`:
+//! the measurements of [`crate::bench`], printed as a table and written as JSON.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use super::args::{self, named};
+use super::Outcome;
+use crate::accel::BackendKind;
+use crate::bench::{format_table, measure};
+use crate::film::io::write_json_atomic;
+
+/// Arguments of `caustica bench`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Mesh files (.obj, .ply, .ply.gz) or scene files (.toml, every shape flattened), each on its own.
+    #[arg(required = true, value_name = "MESH_OR_SCENE")]
+    pub inputs: Vec<PathBuf>,
+    /// Rays per ray set (the primary set uses the nearest square image made of whole 16×16 tiles).
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    pub rays: u64,
+    /// Worker threads for building and tracing [default: all cores].
+    #[arg(long, value_parser = args::threads)]
+    pub threads: Option<usize>,
+    /// Also write the results as JSON to this file (atomically).
+    #[arg(long, value_name = "OUT")]
+    pub json: Option<PathBuf>,
+    /// Backends to measure, comma-separated [default: embree,bvh when Embree is compiled in, else bvh].
+    #[arg(long, value_delimiter = ',', value_name = "LIST", value_parser = named::<BackendKind>())]
+    pub backends: Option<Vec<BackendKind>>,
+}
+
+/// Runs the benchmark, prints the table, and writes the JSON report if asked.
+pub fn run(args: &BenchArgs) -> anyhow::Result<Outcome> {
+    if let Some(out) = &args.json {
+        args::check_output("--json", out)?;
+    }
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
+    let rays = usize::try_from(args.rays).context("--rays is too large")?;
+    let report = measure(&pool, &args.inputs, rays, args.backends.as_deref())?;
+    print!("{}", format_table(&report));
+    if let Some(out) = &args.json {
+        write_json_atomic(out, &report)?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(Outcome::Done)
+}

@@ -1,0 +1,368 @@
+//! `caustica render SCENE.toml ...`: loads a scene, builds the chosen backend, renders, writes the
+//! EXR (and PNG preview, stats JSON, error log) atomically.
+//!
+//! Every output path is checked before anything is rendered, and the EXR is written first, before any
+//! later output can fail: a finished render is never thrown away.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::bail;
+use serde::Serialize;
+
+use super::args::{self, named, PngArgs, RunArgs};
+use super::photon_args::PhotonArgs;
+use super::progress::Progress;
+use super::Outcome;
+use crate::accel::{build_accel, embree_version, BackendKind};
+use crate::film::io::{write_bytes_atomic, write_json_atomic};
+use crate::film::{write_exr, write_png, Film, Rect};
+use crate::render::{render, RenderPhaseStats, RenderSettings};
+use crate::report::error_log::{progress_text, ErrorTracker, PassError};
+use crate::scene::settings::defaults;
+use crate::scene::{Estimator, Scene};
+
+/// Arguments of `caustica render`. Command-line values override the scene file.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Output EXR (float32 RGB). Default: the scene's name with `.exr`, in the current directory.
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Also write an sRGB PNG preview here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    #[command(flatten)]
+    pub png_args: PngArgs,
+    /// Samples per pixel [default: the scene's `integrator.samples_per_pixel`, else 16].
+    #[arg(long, value_parser = args::spp)]
+    pub spp: Option<u32>,
+    /// Render whole passes until this many seconds are spent (ignores --spp).
+    #[arg(long, value_parser = args::seconds)]
+    pub time_limit: Option<f64>,
+    /// Samples per pixel of one pass (time-limited renders) [default: 4].
+    #[arg(long, value_parser = args::pass_spp)]
+    pub pass_spp: Option<u32>,
+    #[command(flatten)]
+    pub run: RunArgs,
+    /// Crop window x0,y0,x1,y1 in pixels (end exclusive).
+    #[arg(long, value_parser = crop)]
+    pub crop: Option<Rect>,
+    /// Caustic estimator [default: the scene's `integrator.caustics.estimator`, else pt].
+    #[arg(long, value_parser = named::<Estimator>())]
+    pub estimator: Option<Estimator>,
+    #[command(flatten)]
+    pub photon: PhotonArgs,
+    /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
+    /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
+    #[arg(long, default_value_t = defaults::PHOTON_GROWTH, value_parser = args::photon_growth)]
+    pub photon_growth: f64,
+    /// Write statistics as JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// A reference image (OpenEXR, the size of the rendered crop window): after every pass the render is
+    /// compared with it (RMSE, relMSE, regions); the figures go to the progress line, `--error-log` and
+    /// the stats JSON (key `error`).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// With --reference: write one CSV row per pass here (seconds, spp, photons, RMSE, relMSE, regions).
+    #[arg(long, requires = "reference")]
+    pub error_log: Option<PathBuf>,
+    /// With --reference: a region to report separately, `name=x0,y0,x1,y1` (pixels or percentages like
+    /// `62%`, exclusive ends). Repeatable.
+    #[arg(long = "region", requires = "reference")]
+    pub regions: Vec<String>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
+}
+
+/// The statistics JSON of a render (`--stats`).
+#[derive(Debug, Serialize)]
+pub struct RenderStatsJson {
+    pub scene: String,
+    pub backend: &'static str,
+    pub embree_version: Option<&'static str>,
+    pub width: u32,
+    pub height: u32,
+    pub crop: [u32; 4],
+    pub spp: u32,
+    pub passes: u32,
+    pub threads: usize,
+    pub seed: u64,
+    pub estimator: Estimator,
+    pub seconds_total: f64,
+    pub seconds_setup: f64,
+    pub seconds_render: f64,
+    pub seconds_photons: f64,
+    pub seconds_kdtree: f64,
+    pub rays_traced: u64,
+    pub rays_per_second: f64,
+    pub samples_per_second: f64,
+    pub knn: u32,
+    pub knn_queries: u64,
+    pub photons_emitted: u64,
+    pub photons_stored: u64,
+    pub photon_bytes: u64,
+    pub photon_chains_capped: u64,
+    pub nan_pixels: u64,
+    pub inf_pixels: u64,
+    pub partial: bool,
+    /// Phases the scene did not need, each with the reason.
+    pub skipped: std::collections::BTreeMap<String, String>,
+    pub photon_growth: f64,
+    /// With --reference: the error after the last pass.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<ErrorJson>,
+}
+
+/// The `error` key of the stats JSON: the reference and the last pass's figures.
+#[derive(Debug, Serialize)]
+pub struct ErrorJson {
+    pub reference: String,
+    #[serde(flatten)]
+    pub last: PassError,
+}
+
+/// Parses `--crop x0,y0,x1,y1` (a non-empty window; checked against the film once the scene is read).
+fn crop(s: &str) -> Result<Rect, String> {
+    let v: Vec<u32> = s.split(',').map(|x| x.trim().parse::<u32>()).collect::<Result<_, _>>().map_err(|_| format!("{s:?}: expected x0,y0,x1,y1"))?;
+    match v[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok(Rect::new(x0, y0, x1, y1)),
+        _ => Err(format!("{s:?}: expected x0,y0,x1,y1 with x0 < x1 and y0 < y1")),
+    }
+}
+
+/// Runs `caustica render`.
+pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
+    let t_start = Instant::now();
+    check_outputs(args)?;
+    let scene = load_scene(args)?;
+    let settings = settings(args, &scene);
+    let tracker = load_reference(args, &scene)?;
+    let backend = args.run.backend();
+    let threads = args.run.threads();
+    let pool = args.run.pool()?;
+    let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    let seconds_setup = t_start.elapsed().as_secs_f64();
+
+    let cancel = cancel_on_ctrl_c();
+    let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
+    let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crop_window(&scene))?;
+    let phases = pool.install(|| {
+        render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
+            progress.tile_done(samples);
+        })
+    })?;
+    progress.finish();
+
+    // The finished image is written first: no later failure may lose it.
+    let output = output_path(args);
+    let image = film.image();
+    write_exr(&output, &image)?;
+    if let Some(e) = pass_log.failure.take() {
+        return Err(e.context(format!("the image was written to {}", output.display())));
+    }
+    if let Some(png) = &args.png {
+        write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
+    }
+    let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
+    let stats = stats_json(args, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
+    if let Some(p) = &args.stats {
+        write_json_atomic(p, &stats)?;
+    }
+    if !args.quiet {
+        print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
+    }
+    Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
+}
+
+/// Checks that every output can be written (directories exist, names are files), before rendering.
+fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
+    let outputs = [
+        ("-o/--output", args.output.as_deref()),
+        ("--png", args.png.as_deref()),
+        ("--stats", args.stats.as_deref()),
+        ("--error-log", args.error_log.as_deref()),
+    ];
+    for (flag, path) in outputs {
+        if let Some(path) = path {
+            args::check_output(flag, path)?;
+        }
+    }
+    Ok(())
+}
+
+/// The scene with `--width`/`--height` and `--crop` applied.
+fn load_scene(args: &RenderArgs) -> anyhow::Result<Scene> {
+    let mut scene = Scene::load(&args.scene)?;
+    args.run.set_resolution(&mut scene)?;
+    if let Some(c) = args.crop {
+        let (w, h) = (scene.camera.width(), scene.camera.height());
+        if c.x1 > w || c.y1 > h {
+            bail!("--crop {},{},{},{}: outside the {w}x{h} film", c.x0, c.y0, c.x1, c.y1);
+        }
+        scene.camera.set_crop(c.x0, c.y0, c.x1, c.y1).map_err(|e| anyhow::anyhow!("--crop: {e}"))?;
+    }
+    Ok(scene)
+}
+
+/// The scene's crop window.
+fn crop_window(scene: &Scene) -> Rect {
+    let (x0, y0, x1, y1) = scene.camera.crop();
+    Rect::new(x0, y0, x1, y1)
+}
+
+/// The scene file's settings with the command line's over them.
+fn settings(args: &RenderArgs, scene: &Scene) -> RenderSettings {
+    let mut settings = RenderSettings::from_scene(scene);
+    if let Some(spp) = args.spp {
+        settings.spp = spp;
+    }
+    settings.time_limit = args.time_limit;
+    settings.pass_spp = args.pass_spp.unwrap_or(if args.time_limit.is_some() { defaults::PASS_SPP_TIME_LIMITED } else { u32::MAX });
+    if let Some(seed) = args.run.seed {
+        settings.seed = seed;
+    }
+    if let Some(estimator) = args.estimator {
+        settings.estimator = estimator;
+    }
+    args.photon.apply(&mut settings);
+    settings.photon_growth = args.photon_growth;
+    settings
+}
+
+/// `--reference` read and checked against the crop window's size, before anything is rendered.
+fn load_reference(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Option<ErrorTracker>> {
+    let Some(path) = &args.reference else { return Ok(None) };
+    let tracker = ErrorTracker::load(path, &args.regions)?;
+    let crop = crop_window(scene);
+    tracker.check_size(crop.width(), crop.height(), path)?;
+    Ok(Some(tracker))
+}
+
+/// `-o`, or the scene's name with `.exr` in the current directory.
+fn output_path(args: &RenderArgs) -> PathBuf {
+    args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.exr", args::scene_stem(&args.scene))))
+}
+
+/// A flag that the first Ctrl-C sets (the render then stops at the next tile and writes what it has); a
+/// second Ctrl-C while the first is being honoured exits at once with code 130.
+fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let c = cancel.clone();
+    let _ = ctrlc::set_handler(move || {
+        if c.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    cancel
+}
+
+/// The error against `--reference` after every pass, and the `--error-log` rewritten (atomically) after
+/// every pass so that it is complete whenever it is read. The first failure is kept and reported after
+/// the image is written.
+struct PassLog<'a> {
+    tracker: Option<ErrorTracker>,
+    error_log: Option<&'a Path>,
+    failure: Option<anyhow::Error>,
+}
+
+impl PassLog<'_> {
+    fn record(&mut self, film: &Film, info: &crate::render::PassInfo) -> Option<PassError> {
+        let tracker = self.tracker.as_mut()?;
+        let row = match tracker.record(&film.image(), info) {
+            Ok(row) => row.clone(),
+            Err(e) => {
+                self.failure.get_or_insert(anyhow::Error::new(e).context("comparing with --reference"));
+                return None;
+            }
+        };
+        if let Some(log) = self.error_log {
+            if let Err(e) = write_bytes_atomic(log, tracker.csv().as_bytes()) {
+                self.failure.get_or_insert(anyhow::Error::new(e).context("--error-log"));
+            }
+        }
+        Some(row)
+    }
+
+    fn last(&self) -> Option<&PassError> {
+        self.tracker.as_ref().and_then(|t| t.rows().last())
+    }
+}
+
+/// Wall-clock figures of the whole command.
+#[derive(Clone, Copy)]
+struct Timing {
+    seconds_total: f64,
+    seconds_setup: f64,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn stats_json(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, film: &Film, pass_log: &PassLog<'_>, backend: BackendKind, threads: usize, timing: Timing) -> RenderStatsJson {
+    let crop = crop_window(scene);
+    let samples = crop.area() as f64 * f64::from(phases.spp);
+    RenderStatsJson {
+        scene: args.scene.display().to_string(),
+        backend: backend.name(),
+        embree_version: if backend == BackendKind::Embree { embree_version() } else { None },
+        width: scene.camera.width(),
+        height: scene.camera.height(),
+        crop: [crop.x0, crop.y0, crop.x1, crop.y1],
+        spp: phases.spp,
+        passes: phases.passes,
+        threads,
+        seed: settings.seed,
+        estimator: settings.estimator,
+        seconds_total: timing.seconds_total,
+        seconds_setup: timing.seconds_setup,
+        seconds_render: phases.seconds_render,
+        seconds_photons: phases.seconds_photons,
+        seconds_kdtree: phases.seconds_kdtree,
+        rays_traced: phases.rays_traced,
+        rays_per_second: phases.rays_traced as f64 / (phases.seconds_render + phases.seconds_photons).max(1e-9),
+        samples_per_second: samples / phases.seconds_render.max(1e-9),
+        knn: settings.knn,
+        knn_queries: phases.knn_queries,
+        photons_emitted: phases.photons_emitted,
+        photons_stored: phases.photons_stored,
+        photon_bytes: phases.photon_bytes,
+        photon_chains_capped: phases.photon_chains_capped,
+        nan_pixels: film.nan_count(),
+        inf_pixels: film.inf_count(),
+        partial: phases.partial,
+        skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
+        photon_growth: settings.photon_growth,
+        error: match (pass_log.last(), &args.reference) {
+            (Some(last), Some(r)) => Some(ErrorJson { reference: r.display().to_string(), last: last.clone() }),
+            _ => None,
+        },
+    }
+}
+
+/// The one-line summary on stderr (and the last error against the reference).
+fn print_summary(output: &Path, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, stats: &RenderStatsJson, pass_log: &PassLog<'_>) {
+    let crop = crop_window(scene);
+    eprintln!(
+        "{}: {}x{} {} spp ({}) in {:.2} s (setup {:.2} s, photons {:.2} s, render {:.2} s), {:.2} Mrays/s{}",
+        output.display(),
+        crop.width(),
+        crop.height(),
+        phases.spp,
+        settings.estimator.name(),
+        stats.seconds_total,
+        stats.seconds_setup,
+        phases.seconds_photons + phases.seconds_kdtree,
+        phases.seconds_render,
+        stats.rays_per_second * 1e-6,
+        if phases.partial { " [partial: interrupted]" } else { "" }
+    );
+    if let Some(last) = pass_log.last() {
+        eprintln!("error against the reference after {} passes: {}", last.pass, progress_text(last));
+    }
+}
