@@ -1,13 +1,13 @@
 //! Maps byte spans of a TOML document to key paths (`shape[3].bsdf.reflectance`) and back to line numbers,
 //! so that every scene error can name the key it is about.
 //!
-//! The document is read a second time into a generic tree whose keys and values carry their spans
-//! (`toml::Spanned`); a span reported by the typed deserialiser is then attributed to the innermost key or
+//! The document is read a second time by `toml_edit` (the parser under `toml`), whose keys and values
+//! carry their spans; a span reported by the typed deserialiser is then attributed to the innermost key or
 //! value that encloses it.
 
 use std::ops::Range;
 
-use serde::de::{Deserialize, Deserializer, MapAccess, SeqAccess, Visitor};
+use toml_edit::{ImDocument, Item, TableLike, Value};
 
 /// One key or array element of the document: its path, the span of its value and (for table keys) of the key.
 #[derive(Clone, Debug)]
@@ -22,213 +22,6 @@ struct Entry {
 pub(crate) struct SpanIndex {
     entries: Vec<Entry>,
     line_starts: Vec<usize>,
-}
-
-// The private protocol by which `toml` hands out spans (`serde_spanned`'s `Spanned`): a struct with these
-// names is deserialised as a map {start, end, value} when the deserialiser knows the span, and as the plain
-// value otherwise (dotted keys such as `to_world.look_at` have no span of their own). `toml::Spanned` fails in
-// the second case, so the index reads both forms itself.
-const SPANNED_NAME: &str = "$__serde_spanned_private_Spanned";
-const SPANNED_START: &str = "$__serde_spanned_private_start";
-const SPANNED_END: &str = "$__serde_spanned_private_end";
-const SPANNED_VALUE: &str = "$__serde_spanned_private_value";
-const SPANNED_FIELDS: &[&str] = &[SPANNED_START, SPANNED_END, SPANNED_VALUE];
-
-/// A generic TOML value whose keys and values carry their spans when the parser knows them.
-enum Node {
-    Leaf,
-    Table(Vec<(SKey, SNode)>),
-    Array(Vec<SNode>),
-}
-
-/// A table key and its span.
-struct SKey {
-    name: String,
-    span: Option<Range<usize>>,
-}
-
-/// A value and its span.
-struct SNode {
-    span: Option<Range<usize>>,
-    node: Node,
-}
-
-/// A value read without asking for its span (the inside of a spanned value).
-struct AnyNode(Node);
-
-impl<'de> Deserialize<'de> for AnyNode {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserializer.deserialize_any(NodeVisitor).map(AnyNode)
-    }
-}
-
-impl<'de> Deserialize<'de> for SKey {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct KeyVisitor;
-        impl<'de> Visitor<'de> for KeyVisitor {
-            type Value = SKey;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a key")
-            }
-            fn visit_str<E>(self, v: &str) -> Result<SKey, E> {
-                Ok(SKey {
-                    name: v.to_string(),
-                    span: None,
-                })
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<SKey, A::Error> {
-                let (span, name) = read_spanned::<A, String>(&mut map)?;
-                Ok(SKey { name, span: Some(span) })
-            }
-        }
-        deserializer.deserialize_struct(SPANNED_NAME, SPANNED_FIELDS, KeyVisitor)
-    }
-}
-
-/// Reads the three entries of a spanned value whose first key has not been consumed yet.
-fn read_spanned<'de, A: MapAccess<'de>, T: Deserialize<'de>>(map: &mut A) -> Result<(Range<usize>, T), A::Error> {
-    use serde::de::Error;
-    let mut start = None;
-    let mut end = None;
-    let mut value = None;
-    while let Some(key) = map.next_key::<String>()? {
-        match key.as_str() {
-            SPANNED_START => start = Some(map.next_value::<usize>()?),
-            SPANNED_END => end = Some(map.next_value::<usize>()?),
-            SPANNED_VALUE => value = Some(map.next_value::<T>()?),
-            other => return Err(A::Error::custom(format!("unexpected key {other} in a spanned value"))),
-        }
-    }
-    match (start, end, value) {
-        (Some(s), Some(e), Some(v)) => Ok((s..e, v)),
-        _ => Err(A::Error::custom("incomplete spanned value")),
-    }
-}
-
-impl<'de> Deserialize<'de> for SNode {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct SNodeVisitor;
-        impl<'de> Visitor<'de> for SNodeVisitor {
-            type Value = SNode;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("any TOML value")
-            }
-            fn visit_bool<E>(self, _: bool) -> Result<SNode, E> {
-                Ok(SNode {
-                    span: None,
-                    node: Node::Leaf,
-                })
-            }
-            fn visit_i64<E>(self, _: i64) -> Result<SNode, E> {
-                Ok(SNode {
-                    span: None,
-                    node: Node::Leaf,
-                })
-            }
-            fn visit_u64<E>(self, _: u64) -> Result<SNode, E> {
-                Ok(SNode {
-                    span: None,
-                    node: Node::Leaf,
-                })
-            }
-            fn visit_f64<E>(self, _: f64) -> Result<SNode, E> {
-                Ok(SNode {
-                    span: None,
-                    node: Node::Leaf,
-                })
-            }
-            fn visit_str<E>(self, _: &str) -> Result<SNode, E> {
-                Ok(SNode {
-                    span: None,
-                    node: Node::Leaf,
-                })
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<SNode, A::Error> {
-                NodeVisitor.visit_seq(seq).map(|node| SNode { span: None, node })
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<SNode, A::Error> {
-                // Either the spanned protocol (first key `start`) or a plain table without a span.
-                let Some(first) = map.next_key::<SKey>()? else {
-                    return Ok(SNode {
-                        span: None,
-                        node: Node::Table(Vec::new()),
-                    });
-                };
-                if first.name == SPANNED_START {
-                    let start = map.next_value::<usize>()?;
-                    let (span, AnyNode(node)) = read_spanned_rest::<A>(&mut map, start)?;
-                    return Ok(SNode { span: Some(span), node });
-                }
-                let mut items = vec![(first, map.next_value::<SNode>()?)];
-                while let Some(key) = map.next_key::<SKey>()? {
-                    items.push((key, map.next_value::<SNode>()?));
-                }
-                Ok(SNode {
-                    span: None,
-                    node: Node::Table(items),
-                })
-            }
-        }
-        deserializer.deserialize_struct(SPANNED_NAME, SPANNED_FIELDS, SNodeVisitor)
-    }
-}
-
-/// Reads `end` and `value` of a spanned value whose `start` was already read.
-fn read_spanned_rest<'de, A: MapAccess<'de>>(map: &mut A, start: usize) -> Result<(Range<usize>, AnyNode), A::Error> {
-    use serde::de::Error;
-    let mut end = None;
-    let mut value = None;
-    while let Some(key) = map.next_key::<String>()? {
-        match key.as_str() {
-            SPANNED_END => end = Some(map.next_value::<usize>()?),
-            SPANNED_VALUE => value = Some(map.next_value::<AnyNode>()?),
-            other => return Err(A::Error::custom(format!("unexpected key {other} in a spanned value"))),
-        }
-    }
-    match (end, value) {
-        (Some(e), Some(v)) => Ok((start..e, v)),
-        _ => Err(A::Error::custom("incomplete spanned value")),
-    }
-}
-
-struct NodeVisitor;
-
-impl<'de> Visitor<'de> for NodeVisitor {
-    type Value = Node;
-
-    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str("any TOML value")
-    }
-    fn visit_bool<E>(self, _: bool) -> Result<Node, E> {
-        Ok(Node::Leaf)
-    }
-    fn visit_i64<E>(self, _: i64) -> Result<Node, E> {
-        Ok(Node::Leaf)
-    }
-    fn visit_u64<E>(self, _: u64) -> Result<Node, E> {
-        Ok(Node::Leaf)
-    }
-    fn visit_f64<E>(self, _: f64) -> Result<Node, E> {
-        Ok(Node::Leaf)
-    }
-    fn visit_str<E>(self, _: &str) -> Result<Node, E> {
-        Ok(Node::Leaf)
-    }
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Node, A::Error> {
-        let mut items = Vec::new();
-        while let Some(item) = seq.next_element::<SNode>()? {
-            items.push(item);
-        }
-        Ok(Node::Array(items))
-    }
-    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Node, A::Error> {
-        let mut items = Vec::new();
-        while let Some(key) = map.next_key::<SKey>()? {
-            let value = map.next_value::<SNode>()?;
-            items.push((key, value));
-        }
-        Ok(Node::Table(items))
-    }
 }
 
 /// `name` as it would be written in a key path: bare if it is a bare TOML key, quoted otherwise.
@@ -259,8 +52,8 @@ impl SpanIndex {
     /// gives an index without entries: errors then carry line numbers but no key paths.
     pub(crate) fn new(text: &str) -> Self {
         let mut index = Self::lines_only(text);
-        if let Ok(AnyNode(Node::Table(items))) = toml::from_str::<AnyNode>(text) {
-            index.add_table("", items);
+        if let Ok(doc) = ImDocument::parse(text) {
+            index.add_table("", doc.as_table());
         }
         index
     }
@@ -275,33 +68,42 @@ impl SpanIndex {
         }
     }
 
-    fn add_table(&mut self, parent: &str, items: Vec<(SKey, SNode)>) {
-        for (key, value) in items {
-            let path = join_key(parent, &key.name);
-            self.entries.push(Entry {
-                path: path.clone(),
-                value_span: value.span,
-                key_span: key.span,
-            });
-            self.add_node(&path, value.node);
+    /// The keys of a table (`[table]`, inline `{ … }` or implicit `a.b = …`) and what is below them.
+    fn add_table(&mut self, parent: &str, table: &dyn TableLike) {
+        for (name, item) in table.iter() {
+            let path = join_key(parent, name);
+            let key_span = table.get_key_value(name).and_then(|(key, _)| key.span());
+            self.entries.push(Entry { path: path.clone(), value_span: item.span(), key_span });
+            self.add_item(&path, item);
         }
     }
 
-    fn add_node(&mut self, path: &str, node: Node) {
-        match node {
-            Node::Leaf => {}
-            Node::Table(items) => self.add_table(path, items),
-            Node::Array(items) => {
-                for (i, item) in items.into_iter().enumerate() {
+    fn add_item(&mut self, path: &str, item: &Item) {
+        match item {
+            Item::None => {}
+            Item::Value(value) => self.add_value(path, value),
+            Item::Table(table) => self.add_table(path, table),
+            Item::ArrayOfTables(tables) => {
+                for (i, table) in tables.iter().enumerate() {
                     let item_path = join_index(path, i);
-                    self.entries.push(Entry {
-                        path: item_path.clone(),
-                        value_span: item.span,
-                        key_span: None,
-                    });
-                    self.add_node(&item_path, item.node);
+                    self.entries.push(Entry { path: item_path.clone(), value_span: table.span(), key_span: None });
+                    self.add_table(&item_path, table);
                 }
             }
+        }
+    }
+
+    fn add_value(&mut self, path: &str, value: &Value) {
+        match value {
+            Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    let item_path = join_index(path, i);
+                    self.entries.push(Entry { path: item_path.clone(), value_span: item.span(), key_span: None });
+                    self.add_value(&item_path, item);
+                }
+            }
+            Value::InlineTable(table) => self.add_table(path, table),
+            _ => {}
         }
     }
 
