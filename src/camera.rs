@@ -16,7 +16,7 @@
 //! The crop window only selects which pixels are rendered; rays are those of the full film. There is no
 //! near clip (rays start at the camera position).
 
-use crate::math::{Mat3, Mat4, Ray, Vec2, Vec3};
+use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -66,7 +66,7 @@ pub struct Camera {
     fov_axis: FovAxis,
     width: u32,
     height: u32,
-    crop: (u32, u32, u32, u32),
+    crop: Rect,
     /// tan of half the field of view along film x and film y.
     tan_half: Vec2,
 }
@@ -91,7 +91,7 @@ impl Camera {
             fov_axis,
             width: 1,
             height: 1,
-            crop: (0, 0, 1, 1),
+            crop: Rect::new(0, 0, 1, 1),
             tan_half: Vec2::ONE,
         };
         camera.set_resolution(width, height)?;
@@ -108,9 +108,9 @@ impl Camera {
         self.height
     }
 
-    /// Crop window `(x0, y0, x1, y1)`, `x1`/`y1` exclusive.
+    /// The crop window (`x1`/`y1` exclusive).
     #[must_use]
-    pub fn crop(&self) -> (u32, u32, u32, u32) {
+    pub fn crop(&self) -> Rect {
         self.crop
     }
 
@@ -163,12 +163,13 @@ impl Camera {
         };
         self.width = width;
         self.height = height;
-        self.crop = (0, 0, width, height);
+        self.crop = Rect::new(0, 0, width, height);
         Ok(())
     }
 
-    /// Sets the crop window `(x0, y0, x1, y1)` (exclusive upper bounds) within the film.
-    pub fn set_crop(&mut self, x0: u32, y0: u32, x1: u32, y1: u32) -> Result<(), CameraError> {
+    /// Sets the crop window (exclusive upper bounds) within the film.
+    pub fn set_crop(&mut self, crop: Rect) -> Result<(), CameraError> {
+        let Rect { x0, y0, x1, y1 } = crop;
         if x0 >= x1 || y0 >= y1 || x1 > self.width || y1 > self.height {
             return Err(CameraError::Crop {
                 x0,
@@ -179,7 +180,7 @@ impl Camera {
                 height: self.height,
             });
         }
-        self.crop = (x0, y0, x1, y1);
+        self.crop = crop;
         Ok(())
     }
 
@@ -269,9 +270,9 @@ mod tests {
         );
         assert_eq!(Camera::new(Mat4::ZERO, 40.0, FovAxis::X, 4, 4), Err(CameraError::Transform));
         let mut cam = Camera::new(m, 40.0, FovAxis::X, 8, 4).unwrap();
-        assert!(cam.set_crop(2, 1, 8, 4).is_ok());
-        assert_eq!(cam.crop(), (2, 1, 8, 4));
-        assert!(cam.set_crop(2, 1, 9, 4).is_err() && cam.set_crop(3, 1, 3, 4).is_err());
+        assert!(cam.set_crop(Rect::new(2, 1, 8, 4)).is_ok());
+        assert_eq!(cam.crop(), Rect::new(2, 1, 8, 4));
+        assert!(cam.set_crop(Rect::new(2, 1, 9, 4)).is_err() && cam.set_crop(Rect::new(3, 1, 3, 4)).is_err());
         assert!(cam.set_resolution(16, 0).is_err());
         assert_eq!(
             cam.set_resolution(100_000, 100_000),
@@ -281,6 +282,6 @@ mod tests {
             })
         );
         cam.set_resolution(16, 8).unwrap();
-        assert_eq!((cam.width(), cam.height(), cam.crop()), (16, 8, (0, 0, 16, 8)));
+        assert_eq!((cam.width(), cam.height(), cam.crop()), (16, 8, Rect::new(0, 0, 16, 8)));
     }
 }

@@ -260,6 +260,63 @@ pub fn next_float_down(v: f32) -> f32 {
     -next_float_up(-v)
 }
 
+/// A pixel rectangle `[x0, x1) × [y0, y1)` in film coordinates (row 0 = top): the one type of crop
+/// windows, tiles and (named, in `report::metrics::Region`) error regions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Rect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Rect {
+    #[must_use]
+    pub fn new(x0: u32, y0: u32, x1: u32, y1: u32) -> Self {
+        Self { x0, y0, x1, y1 }
+    }
+
+    #[must_use]
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    #[must_use]
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    /// Number of pixels.
+    #[must_use]
+    pub fn area(&self) -> u64 {
+        u64::from(self.width()) * u64::from(self.height())
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
+    #[must_use]
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+
+    /// `true` if `other` lies entirely inside `self`.
+    #[must_use]
+    pub fn contains_rect(&self, other: &Rect) -> bool {
+        other.x0 >= self.x0 && other.y0 >= self.y0 && other.x1 <= self.x1 && other.y1 <= self.y1
+    }
+
+    /// Row-major index of `(x, y)` inside the rectangle, `None` outside.
+    #[must_use]
+    #[inline]
+    pub(crate) fn index(&self, x: u32, y: u32) -> Option<usize> {
+        self.contains(x, y)
+            .then(|| (y - self.y0) as usize * self.width() as usize + (x - self.x0) as usize)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -54,8 +54,7 @@ impl RenderSettings {
     pub fn from_scene(scene: &Scene) -> Self {
         let integ = &scene.integrator;
         let caus = &integ.caustics;
-        let (x0, y0, x1, y1) = scene.camera.crop();
-        let pixels = u64::from(x1 - x0) * u64::from(y1 - y0);
+        let pixels = scene.camera.crop().area();
         RenderSettings {
             spp: integ.samples_per_pixel,
             pass_spp: u32::MAX,
@@ -294,8 +293,7 @@ pub enum RenderImageError {
 /// progress, no cancellation: the one-call form used by tests and reports.
 pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings: &RenderSettings) -> Result<RenderedImage, RenderImageError> {
     let accel = crate::accel::build_accel(backend, &scene.mesh.positions, &scene.mesh.indices)?;
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crate::film::Rect::new(x0, y0, x1, y1))?;
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop())?;
     let cancel = AtomicBool::new(false);
     let t = Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;

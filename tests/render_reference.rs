@@ -1,5 +1,5 @@
 //! `scenes/cornell-caustics.toml` against the independent Mitsuba 3 reference
-//! (`shared/reference/cornell-caustics/mitsuba-path-9984spp.exr`, 256×256, 9,984 spp, box filter; see the
+//! (`scenes/reference/cornell-caustics/mitsuba-path-9984spp.exr`, 256×256, 9,984 spp, box filter; see the
 //! README beside it). The reference must be present: without it these tests fail (see
 //! `common::load_reference`).
 //!
@@ -143,7 +143,7 @@ fn pt_whole_image_and_blocks_match_reference() {
 fn pt_caustic_matches_reference() {
     let mut scene = cornell();
     let c = caustic_region(256);
-    scene.camera.set_crop(c.x0, c.y0, c.x1, c.y1).expect("crop");
+    scene.camera.set_crop(c.rect).expect("crop");
     let mut s = RenderSettings::from_scene(&scene);
     s.spp = 512;
     s.seed = 1;
@@ -169,7 +169,7 @@ fn pt_caustic_matches_reference() {
 fn kernel_bias_ratio(est: Estimator, photons: u64) -> (f64, f64, f64) {
     let mut scene = cornell();
     let c = caustic_region(256);
-    scene.camera.set_crop(c.x0, c.y0, c.x1, c.y1).expect("crop");
+    scene.camera.set_crop(c.rect).expect("crop");
     let mut s = RenderSettings::from_scene(&scene);
     s.spp = 64;
     s.seed = 3;

@@ -115,7 +115,7 @@ fn cornell_matches_the_reference_numbers() {
     }
     assert_eq!(s.bsdfs.len(), 6);
     assert!(s.has_delta_bsdf());
-    assert_eq!((s.camera.width(), s.camera.height(), s.camera.crop()), (256, 256, (0, 0, 256, 256)));
+    assert_eq!((s.camera.width(), s.camera.height(), s.camera.crop()), (256, 256, caustica::film::Rect::new(0, 0, 256, 256)));
     assert_eq!(s.integrator.samples_per_pixel, 64);
     assert_eq!(s.integrator.max_depth, -1);
     assert_eq!(s.integrator.caustics.estimator, Estimator::Pt);

@@ -124,8 +124,7 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
 pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
     let mut scene = Scene::load(&args.scene)?;
     args.run.set_resolution(&mut scene)?;
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    let (width, height) = (x1 - x0, y1 - y0);
+    let (width, height) = (scene.camera.crop().width(), scene.camera.crop().height());
     let template = ErrorTracker::load(&args.reference, &args.regions)?;
     check(args, &template, width, height)?;
     let base = base_settings(args, &scene);

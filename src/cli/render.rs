@@ -207,15 +207,14 @@ fn load_scene(args: &RenderArgs) -> anyhow::Result<Scene> {
         if c.x1 > w || c.y1 > h {
             bail!("--crop {},{},{},{}: outside the {w}x{h} film", c.x0, c.y0, c.x1, c.y1);
         }
-        scene.camera.set_crop(c.x0, c.y0, c.x1, c.y1).map_err(|e| anyhow::anyhow!("--crop: {e}"))?;
+        scene.camera.set_crop(c).map_err(|e| anyhow::anyhow!("--crop: {e}"))?;
     }
     Ok(scene)
 }
 
 /// The scene's crop window.
 fn crop_window(scene: &Scene) -> Rect {
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    Rect::new(x0, y0, x1, y1)
+    scene.camera.crop()
 }
 
 /// The scene file's settings with the command line's over them.

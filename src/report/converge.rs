@@ -32,7 +32,7 @@ use super::error_log::{ErrorTracker, PassError};
 use super::plot::{error_plot, side_by_side, Panel, Series};
 use crate::accel::Accel;
 use crate::film::io::write_bytes_atomic;
-use crate::film::{Film, Image, Rect, Tonemap};
+use crate::film::{Film, Image, Tonemap};
 use crate::photon::PhotonBudget;
 use crate::render::{render, PassInfo, RenderPhaseStats, RenderSettings};
 use crate::scene::{Estimator, Scene};
@@ -208,8 +208,7 @@ pub fn describe_budget(b: PhotonBudget) -> String {
 /// `on_row` sees every pass's figures. The comparison's own time is not counted (see
 /// [`crate::render::PassInfo::seconds`]).
 pub fn run_estimator(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings, mut tracker: ErrorTracker, cancel: &AtomicBool, mut on_row: impl FnMut(&PassInfo, &PassError)) -> anyhow::Result<EstimatorRun> {
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop())?;
     let mut metric_error: Option<anyhow::Error> = None;
     let stats = render(
         scene,

@@ -21,7 +21,7 @@
 //! has a NaN; `inf_count`: infinite, no NaN). Non-finite reference pixels are excluded too and counted in
 //! `reference_non_finite`. With no valid pixel the metrics are NaN (serialised to JSON as `null`).
 
-use crate::film::{luminance_f64, Image};
+use crate::film::{luminance_f64, Image, Rect};
 
 /// The ε of relMSE, added to the squared reference value of each channel.
 pub const RELMSE_EPSILON: f64 = 1e-2;
@@ -55,14 +55,20 @@ pub enum MetricsError {
 }
 
 /// A named pixel rectangle `[x0, x1) × [y0, y1)` (exclusive ends; row 0 = top), always non-empty and
-/// inside the image it was made for (every constructor clips and rejects empty results).
+/// inside the image it was made for (every constructor clips and rejects empty results). Its bounds are
+/// the one [`Rect`] type of crop windows and tiles; `region.x0` reads through to them.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Region {
     pub name: String,
-    pub x0: u32,
-    pub y0: u32,
-    pub x1: u32,
-    pub y1: u32,
+    #[serde(flatten)]
+    pub rect: Rect,
+}
+
+impl std::ops::Deref for Region {
+    type Target = Rect;
+    fn deref(&self) -> &Rect {
+        &self.rect
+    }
 }
 
 /// Fraction → pixel bounds with the rounding used everywhere: the start is `floor(f·size)`, the end is
@@ -97,10 +103,7 @@ impl Region {
         // The clamps above bound every value by a u32.
         Ok(Self {
             name,
-            x0: cx0 as u32,
-            y0: cy0 as u32,
-            x1: cx1 as u32,
-            y1: cy1 as u32,
+            rect: Rect::new(cx0 as u32, cy0 as u32, cx1 as u32, cy1 as u32),
         })
     }
 
@@ -109,10 +112,7 @@ impl Region {
     pub fn whole(width: u32, height: u32) -> Self {
         Self {
             name: "image".to_owned(),
-            x0: 0,
-            y0: 0,
-            x1: width,
-            y1: height,
+            rect: Rect::new(0, 0, width, height),
         }
     }
 
@@ -189,20 +189,10 @@ impl Region {
         Self::new(name, v[0], v[1], v[2], v[3], width, height)
     }
 
-    #[must_use]
-    pub fn width(&self) -> u32 {
-        self.x1.saturating_sub(self.x0)
-    }
-
-    #[must_use]
-    pub fn height(&self) -> u32 {
-        self.y1.saturating_sub(self.y0)
-    }
-
     /// Number of pixels.
     #[must_use]
     pub fn pixels(&self) -> u64 {
-        u64::from(self.width()) * u64::from(self.height())
+        self.rect.area()
     }
 
     /// The region clipped to a `width × height` image (regions built for another size, or edited fields).

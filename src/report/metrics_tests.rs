@@ -145,10 +145,7 @@ fn regions_clip_at_the_border() {
     // A region with edited fields beyond the image is clipped by compare too.
     let edited = Region {
         name: "wide".into(),
-        x0: 1,
-        y0: 0,
-        x1: 99,
-        y1: 1,
+        rect: crate::film::Rect::new(1, 0, 99, 1),
     };
     let c = compare(&image, &reference, &[edited], 1).unwrap();
     assert_eq!((c.regions[0].region.x1, c.regions[0].metrics.pixels), (3, 2));

@@ -252,7 +252,7 @@ fn camera(ctx: &ErrorContext, file: &SceneFile) -> Result<Camera, SceneError> {
     })?;
     if let Some([x0, y0, x1, y1]) = s.film.crop {
         camera
-            .set_crop(x0, y0, x1, y1)
+            .set_crop(crate::math::Rect::new(x0, y0, x1, y1))
             .map_err(|e| ctx.key_error("sensor.film.crop", e.to_string()))?;
     }
     Ok(camera)

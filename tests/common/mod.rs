@@ -155,8 +155,8 @@ pub struct Rendered {
 /// variance of the luminance is available.
 pub fn render_with_variance(scene: &Scene, backend: BackendKind, settings: &RenderSettings) -> Rendered {
     let accel = build_accel(backend, &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{e}"));
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1)).expect("film");
+    let Rect { x0, y0, x1, y1 } = scene.camera.crop();
+    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop()).expect("film");
     let cancel = AtomicBool::new(false);
     let t = std::time::Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
