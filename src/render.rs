@@ -3,14 +3,15 @@
 //!
 //! A *pass* renders `pass_spp` samples for every pixel of the crop window. With a sample budget and no
 //! time limit there is one pass of `spp` samples and one photon map (the paper's configuration: α = spp).
-//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map with its
-//! own seed (α = `pass_spp`), and the film averages over passes.
+//! With a time limit, passes run until the time is spent, the last one cut at the limit (its finished
+//! tiles kept), so that renders of different estimators take equal time; each pass traces a fresh photon
+//! map with its own seed (α = `pass_spp`), and the film averages over passes.
 //!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -127,7 +128,14 @@ pub struct RenderPhaseStats {
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
     pub partial: bool,
+    /// Serialised as an object `{phase: reason}`, the one form of every stats JSON.
+    #[serde(serialize_with = "skipped_as_map")]
     pub skipped: Vec<SkippedPhase>,
+}
+
+/// `[{phase, reason}]` as `{phase: reason}`.
+fn skipped_as_map<S: serde::Serializer>(skipped: &[SkippedPhase], serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.collect_map(skipped.iter().map(|s| (&s.phase, &s.reason)))
 }
 
 /// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
@@ -202,11 +210,17 @@ pub fn render(
             caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius),
             alpha: this_pass as f32,
         };
+        // With a time limit the eye pass stops at the limit, from the second pass on (the first always
+        // completes, so that every pixel has samples): tiles not started by then are left out.
+        let deadline = match settings.time_limit {
+            Some(limit) if pass > 0 => Some(Instant::now() + Duration::from_secs_f64((limit - (start.elapsed().as_secs_f64() - callback_seconds)).max(0.0))),
+            _ => None,
+        };
         let t_pass = Instant::now();
         let results: Vec<Option<(TileBuffer, PathStats)>> = tiles
             .par_iter()
             .map(|tile| {
-                if cancel.load(Ordering::Relaxed) {
+                if cancel.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
                     return None;
                 }
                 let mut buf = TileBuffer::new(*tile);
@@ -228,21 +242,25 @@ pub fn render(
                 Some((buf, ps))
             })
             .collect();
-        // Tiles cancelled by Ctrl-C come back as None; finished tiles are kept (the film counts samples
-        // per pixel, so every pixel's mean stays unbiased) and the render is marked partial.
-        let cancelled = results.iter().any(Option::is_none);
+        // Tiles left out (Ctrl-C, or the time limit) come back as None; finished tiles are kept (the film
+        // counts samples per pixel, so every pixel's mean stays unbiased). Ctrl-C marks the render partial;
+        // a pass cut by the time limit is the last one, reported to `on_pass` if any tile finished, and its
+        // samples are not counted in `spp` (they cover only some pixels).
+        let unfinished = results.iter().any(Option::is_none);
+        let finished_tiles = results.iter().flatten().count();
         for (buf, ps) in results.into_iter().flatten() {
             film.merge_tile(&buf)?;
             stats.rays_traced += ps.rays;
             stats.knn_queries += ps.knn_queries;
         }
-        if cancelled {
-            stats.partial = true;
-            stats.seconds_render += t_pass.elapsed().as_secs_f64();
+        stats.seconds_render += t_pass.elapsed().as_secs_f64();
+        if unfinished && (cancel.load(Ordering::Relaxed) || finished_tiles == 0) {
+            stats.partial |= cancel.load(Ordering::Relaxed);
             break;
         }
-        stats.seconds_render += t_pass.elapsed().as_secs_f64();
-        spp_done += this_pass;
+        if !unfinished {
+            spp_done += this_pass;
+        }
         pass += 1;
         let info = PassInfo {
             pass,
@@ -254,6 +272,9 @@ pub fn render(
         let t_callback = Instant::now();
         on_pass(film, &info);
         callback_seconds += t_callback.elapsed().as_secs_f64();
+        if unfinished {
+            break;
+        }
         if let Some(limit) = settings.time_limit {
             if start.elapsed().as_secs_f64() - callback_seconds >= limit {
                 break;

@@ -121,6 +121,9 @@ fn bad_numbers_name_the_flag() {
         (&["--max-radius", "-1"], "--max-radius"),
         (&["--time-limit", "nan"], "--time-limit"),
         (&["--crop", "4,4,2,2"], "--crop"),
+        (&["--exposure", "nan"], "--exposure"),
+        (&["--exposure", "inf"], "--exposure"),
+        (&["--photon-growth", "0.5"], "--photon-growth"),
     ];
     for (extra, flag) in cases {
         let args: Vec<&str> = base.iter().chain(extra.iter()).copied().collect();
@@ -165,4 +168,59 @@ fn compare_rejects_unreadable_and_non_exr_files() {
     std::fs::create_dir(dir.join("d.exr")).unwrap();
     expect_error(&dir, &["compare", "d.exr", "ref.exr", "--json", "c.json"], &["d.exr"]);
     expect_error(&dir, &["compare", "ref.exr", "ref.exr", "--json", "nodir/c.json"], &["nodir"]);
+}
+
+#[test]
+fn image_outputs_need_the_extension_of_their_format() {
+    let dir = case_dir("extensions");
+    write(&dir, "good.toml", GOOD_SCENE);
+    // `-o a.png` once wrote EXR bytes under a PNG name.
+    expect_error(&dir, &["render", "good.toml", "-q", "-o", "a.png"], &["a.png", ".exr", "--png"]);
+    expect_error(&dir, &["render", "good.toml", "-q", "-o", "a"], &["-o", ".exr"]);
+    expect_error(&dir, &["render", "good.toml", "-q", "-o", "a.exr", "--png", "a.exr.jpg"], &["--png", ".png"]);
+}
+
+#[test]
+fn a_bad_error_log_path_is_reported_before_rendering() {
+    let dir = case_dir("errorlog");
+    write(&dir, "good.toml", GOOD_SCENE);
+    let out = Command::new(BIN).args(["render", "good.toml", "-q", "-o", "ref.exr"]).current_dir(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Once the whole image was rendered, then lost: exit 2 and no EXR.
+    expect_error(&dir, &["render", "good.toml", "-q", "-o", "out.exr", "--reference", "ref.exr", "--error-log", "missing/log.csv"], &["--error-log", "missing"]);
+}
+
+/// Runs a render that must succeed and returns its stats JSON.
+fn render_stats(dir: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["render", "good.toml", "-q", "-o", "out.exr", "--stats", "out.json"];
+    args.extend(extra);
+    let out = Command::new(BIN).args(&args).current_dir(dir).output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_str(&std::fs::read_to_string(dir.join("out.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn width_or_height_alone_keeps_the_aspect_ratio() {
+    let dir = case_dir("aspect");
+    write(&dir, "good.toml", GOOD_SCENE);
+    let size = |v: &serde_json::Value| (v["width"].as_u64().unwrap(), v["height"].as_u64().unwrap());
+    // The scene is 8 × 6.
+    assert_eq!(size(&render_stats(&dir, &["--width", "16"])), (16, 12));
+    assert_eq!(size(&render_stats(&dir, &["--height", "3"])), (4, 3));
+    assert_eq!(size(&render_stats(&dir, &["--width", "5"])), (5, 4)); // 3.75 rounds to 4
+    assert_eq!(size(&render_stats(&dir, &["--width", "5", "--height", "5"])), (5, 5));
+}
+
+#[test]
+fn stats_follow_the_documented_schema() {
+    let dir = case_dir("schema");
+    write(&dir, "good.toml", GOOD_SCENE);
+    let v = render_stats(&dir, &["--estimator", "mis", "--photons", "3000", "--max-radius", "0.25", "--threads", "1"]);
+    assert!(v["caustica_version"].as_str().unwrap().starts_with(env!("CARGO_PKG_VERSION")), "{v}");
+    assert_eq!(v["max_radius"].as_f64(), Some(0.25));
+    assert_eq!((v["photon_budget"].as_str(), v["photon_target"].as_u64()), (Some("emitted"), Some(3000)));
+    assert_eq!((v["nan_samples"].as_u64(), v["inf_samples"].as_u64()), (Some(0), Some(0)));
+    assert!(v.get("nan_pixels").is_none());
+    // `skipped` is an object {phase: reason} (no environment map here).
+    assert!(v["skipped"]["environment importance sampling"].is_string(), "{v}");
 }

@@ -114,10 +114,10 @@ pub struct RunArgs {
     /// Intersection backend [default: embree when compiled in, else bvh].
     #[arg(long, value_parser = named::<BackendKind>())]
     pub backend: Option<BackendKind>,
-    /// Film width in pixels [default: the scene's].
+    /// Film width in pixels; alone, the height follows the scene's aspect ratio [default: the scene's].
     #[arg(long, value_parser = resolution)]
     pub width: Option<u32>,
-    /// Film height in pixels [default: the scene's].
+    /// Film height in pixels; alone, the width follows the scene's aspect ratio [default: the scene's].
     #[arg(long, value_parser = resolution)]
     pub height: Option<u32>,
 }
@@ -141,13 +141,19 @@ impl RunArgs {
         rayon::ThreadPoolBuilder::new().num_threads(self.threads()).build().context("creating the worker threads")
     }
 
-    /// `--width` / `--height` over the scene's film size (either may be given alone).
+    /// `--width` / `--height` over the scene's film size. One of them alone keeps the scene's aspect
+    /// ratio (the other side rounded to the nearest pixel, at least 1).
     pub fn set_resolution(&self, scene: &mut crate::scene::Scene) -> anyhow::Result<()> {
-        if self.width.is_some() || self.height.is_some() {
-            let w = self.width.unwrap_or(scene.camera.width());
-            let h = self.height.unwrap_or(scene.camera.height());
-            scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-        }
+        let (sw, sh) = (u64::from(scene.camera.width()), u64::from(scene.camera.height()));
+        // round(a·b/c) in integers, at least 1, saturating at u32::MAX.
+        let scaled = |a: u32, b: u64, c: u64| u32::try_from(((u64::from(a) * b + c / 2) / c).max(1)).unwrap_or(u32::MAX);
+        let (w, h) = match (self.width, self.height) {
+            (None, None) => return Ok(()),
+            (Some(w), Some(h)) => (w, h),
+            (Some(w), None) => (w, scaled(w, sh, sw)),
+            (None, Some(h)) => (scaled(h, sw, sh), h),
+        };
+        scene.camera.set_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
         Ok(())
     }
 }
@@ -179,6 +185,15 @@ pub fn check_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
     }
     if path.is_dir() {
         bail!("{flag} {}: is a directory", path.display());
+    }
+    Ok(())
+}
+
+/// Checks that an image output's name ends in the extension of the format written there (`exr` or
+/// `png`, any case): `-o a.png` would otherwise get EXR bytes under a PNG name.
+pub fn check_image_extension(flag: &str, path: &std::path::Path, ext: &str, hint: &str) -> anyhow::Result<()> {
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
+        anyhow::bail!("{flag} {}: writes {} and needs a name ending in .{ext}{hint}", path.display(), ext.to_uppercase());
     }
     Ok(())
 }

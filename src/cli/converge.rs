@@ -38,7 +38,7 @@ pub struct ConvergeArgs {
     /// Caustic estimators to compare, comma-separated.
     #[arg(long, value_parser = named::<Estimator>(), value_delimiter = ',', default_value = "pt,pm,mis")]
     pub estimators: Vec<Estimator>,
-    /// Seconds of rendering per estimator (whole passes: the last one may run over).
+    /// Seconds of rendering per estimator (the last pass is cut at the budget; error evaluation excluded).
     #[arg(long, default_value_t = 30.0, value_parser = args::seconds)]
     pub time_budget: f64,
     /// A region to report separately, `name=x0,y0,x1,y1` (pixels or percentages, exclusive ends). Repeatable.
@@ -54,8 +54,8 @@ pub struct ConvergeArgs {
     pub photon: PhotonArgs,
     #[command(flatten)]
     pub run: RunArgs,
-    /// Errors to reach, for the time-to-error table (repeatable). Default: the largest and smallest final
-    /// error among the estimators and their geometric mean.
+    /// Errors to reach, for the time-to-error table (repeatable). Default: three errors every estimator
+    /// reaches, from the largest final error up towards the smallest first-pass error (geometric steps).
     #[arg(long = "target-error", value_parser = args::seconds)]
     pub target_errors: Vec<f64>,
     /// The region (a --region name) the time-to-error table measures; default the whole image.
@@ -74,6 +74,7 @@ pub struct ConvergeArgs {
 /// `summary.json`.
 #[derive(Debug, Serialize)]
 struct Summary<'a> {
+    caustica_version: &'static str,
     scene: String,
     reference: String,
     width: u32,
@@ -172,6 +173,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
     write_bytes_atomic(args.output.join("time-to-error.csv"), time_to_error_csv(&table).as_bytes())?;
     write_json_atomic(args.output.join("time-to-error.json"), &table)?;
     let summary = Summary {
+        caustica_version: super::VERSION.as_str(),
         scene: args.scene.display().to_string(),
         reference: args.reference.display().to_string(),
         width,

@@ -7,6 +7,7 @@ pub mod args;
 pub mod bench;
 pub mod compare;
 pub mod converge;
+pub mod info;
 pub mod photon_args;
 pub mod progress;
 pub mod render;
@@ -42,6 +43,8 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Error against time of the caustic estimators at equal render time, with plots and images.
     Converge(converge::ConvergeArgs),
+    /// Describe a scene without rendering it: triangles, materials, lights, photon pass, memory.
+    Info(info::InfoArgs),
 }
 
 /// How a subcommand ended without an error.
@@ -73,6 +76,7 @@ pub fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Converge(args) => converge::run(args),
+        Command::Info(args) => info::run(args),
     };
     match result {
         Ok(Outcome::Done) => ExitCode::SUCCESS,

@@ -1,52 +1,109 @@
-//! The progress bar (indicatif): samples/s and time left; hidden when stdout is not a terminal or with
-//! `--quiet`.
+//! The progress line (indicatif), at most 80 columns: a bar, the percentage, the samples per pixel done
+//! (of the total, or so far with `--time-limit`), the sample rate in readable units, the elapsed time and
+//! the time left, then the last pass's error against `--reference`, cut to the terminal's width. Hidden
+//! when stdout is not a terminal or with `--quiet`.
+//!
+//! With `--time-limit` the bar measures time (its length is the limit in milliseconds), so its ETA is
+//! the time left.
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 
 use crate::render::{PassInfo, RenderSettings};
 use crate::report::error_log::{progress_text, PassError};
 
 pub struct Progress {
     bar: Option<ProgressBar>,
+    samples: Arc<AtomicU64>,
+    start: Instant,
+    /// The time limit in milliseconds (the bar's length then).
+    limit_ms: Option<u64>,
+}
+
+/// A rate with an SI prefix: `950 samples/s`, `12.3 ksamples/s`, `1.23 Msamples/s`.
+#[must_use]
+pub fn readable_rate(per_second: f64) -> String {
+    let (v, prefix) = match per_second {
+        r if !r.is_finite() || r < 1e3 => (per_second.max(0.0), ""),
+        r if r < 1e6 => (r / 1e3, "k"),
+        r if r < 1e9 => (r / 1e6, "M"),
+        r => (r / 1e9, "G"),
+    };
+    let digits = if v < 10.0 && !prefix.is_empty() { 2 } else if v < 100.0 && !prefix.is_empty() { 1 } else { 0 };
+    format!("{v:.digits$} {prefix}samples/s")
+}
+
+/// `m:ss` (or `h:mm:ss` from an hour on).
+#[must_use]
+pub fn clock(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
 }
 
 impl Progress {
-    /// A bar over all samples of the render (or over the time limit).
+    /// A line over all samples of the render (or over the time limit).
     #[must_use]
     pub fn new(show: bool, settings: &RenderSettings, pixels: u64) -> Self {
+        let samples = Arc::new(AtomicU64::new(0));
+        let start = Instant::now();
+        let limit_ms = settings.time_limit.map(|t| (t * 1e3).round().max(1.0) as u64);
         if !show {
-            return Self { bar: None };
+            return Self { bar: None, samples, start, limit_ms };
         }
-        let bar = match settings.time_limit {
-            None => ProgressBar::new(pixels * u64::from(settings.spp)),
-            Some(_) => ProgressBar::no_length(),
-        };
+        let pixels = pixels.max(1);
+        let bar = ProgressBar::new(limit_ms.unwrap_or(pixels * u64::from(settings.spp)));
         bar.set_draw_target(ProgressDrawTarget::stdout());
-        let template = if settings.time_limit.is_some() {
-            "{spinner} {elapsed_precise} {human_pos} samples ({per_sec}) {msg}"
-        } else {
-            "{bar:40} {percent:>3}% {elapsed_precise} left {eta_precise} ({per_sec} samples) {msg}"
-        };
-        if let Ok(style) = ProgressStyle::with_template(template) {
+        let total_spp = settings.spp;
+        let timed = limit_ms.is_some();
+        let (s_spp, s_rate) = (samples.clone(), samples.clone());
+        let style = ProgressStyle::with_template("{bar:16} {percent:>3}% {spp} {rate} {clock} {wide_msg}").map(|style| {
+            style
+                .with_key("spp", move |_: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let done = s_spp.load(Ordering::Relaxed) / pixels;
+                    let _ = if timed { write!(w, "{done} spp") } else { write!(w, "{done}/{total_spp} spp") };
+                })
+                .with_key("rate", move |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let secs = state.elapsed().as_secs_f64();
+                    let rate = if secs > 0.0 { s_rate.load(Ordering::Relaxed) as f64 / secs } else { 0.0 };
+                    let _ = write!(w, "{}", readable_rate(rate));
+                })
+                .with_key("clock", |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{} ETA {}", clock(state.elapsed()), clock(state.eta()));
+                })
+        });
+        if let Ok(style) = style {
             bar.set_style(style);
         }
-        Self { bar: Some(bar) }
+        Self { bar: Some(bar), samples, start, limit_ms }
     }
 
     /// A tile of `samples` pixel samples finished.
     pub fn tile_done(&self, samples: u64) {
+        self.samples.fetch_add(samples, Ordering::Relaxed);
         if let Some(b) = &self.bar {
-            b.inc(samples);
+            match self.limit_ms {
+                Some(limit) => b.set_position((self.start.elapsed().as_millis() as u64).min(limit)),
+                None => b.inc(samples),
+            }
         }
     }
 
     /// A pass finished; `error` is its error against the reference, if there is one.
     pub fn pass_done(&self, info: &PassInfo, error: Option<&PassError>) {
         if let Some(b) = &self.bar {
-            match error {
-                Some(e) => b.set_message(format!("pass {} ({} spp) {}", info.pass, info.spp, progress_text(e))),
-                None => b.set_message(format!("pass {} ({} spp)", info.pass, info.spp)),
+            let mut msg = format!("pass {}", info.pass);
+            if let Some(e) = error {
+                let _ = write!(msg, " {}", progress_text(e));
             }
+            b.set_message(msg);
         }
     }
 
@@ -54,5 +111,21 @@ impl Progress {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_and_clocks_are_readable() {
+        assert_eq!(readable_rate(950.0), "950 samples/s");
+        assert_eq!(readable_rate(12_345.0), "12.3 ksamples/s");
+        assert_eq!(readable_rate(364_758.188), "365 ksamples/s");
+        assert_eq!(readable_rate(1_234_567.0), "1.23 Msamples/s");
+        assert_eq!(readable_rate(f64::NAN), "0 samples/s");
+        assert_eq!(clock(Duration::from_secs(83)), "1:23");
+        assert_eq!(clock(Duration::from_secs(3723)), "1:02:03");
     }
 }

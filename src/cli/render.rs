@@ -20,6 +20,7 @@ use super::Outcome;
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::io::{write_bytes_atomic, write_json_atomic};
 use crate::film::{write_exr, write_png, Film, Rect};
+use crate::photon::PhotonBudget;
 use crate::render::{render, RenderPhaseStats, RenderSettings};
 use crate::report::error_log::{progress_text, ErrorTracker, PassError};
 use crate::scene::settings::defaults;
@@ -41,7 +42,7 @@ pub struct RenderArgs {
     /// Samples per pixel [default: the scene's `integrator.samples_per_pixel`, else 16].
     #[arg(long, value_parser = args::spp)]
     pub spp: Option<u32>,
-    /// Render whole passes until this many seconds are spent (ignores --spp).
+    /// Render passes until this many seconds are spent, the last pass cut at the limit (ignores --spp).
     #[arg(long, value_parser = args::seconds)]
     pub time_limit: Option<f64>,
     /// Samples per pixel of one pass (time-limited renders) [default: 4].
@@ -81,9 +82,11 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
-/// The statistics JSON of a render (`--stats`).
+/// The statistics JSON of a render (`--stats`; the schema is documented in the README).
 #[derive(Debug, Serialize)]
 pub struct RenderStatsJson {
+    /// `caustica <version> (embree <version>)`.
+    pub caustica_version: &'static str,
     pub scene: String,
     pub backend: &'static str,
     pub embree_version: Option<&'static str>,
@@ -104,15 +107,21 @@ pub struct RenderStatsJson {
     pub rays_per_second: f64,
     pub samples_per_second: f64,
     pub knn: u32,
+    pub max_radius: f32,
+    /// What the photon pass aims for: `emitted` (N photons emitted) or `stored` (emit until M caustic
+    /// photons are stored), and the count of the first pass (pass p: × photon_growth^p).
+    pub photon_budget: &'static str,
+    pub photon_target: u64,
     pub knn_queries: u64,
     pub photons_emitted: u64,
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
-    pub nan_pixels: u64,
-    pub inf_pixels: u64,
+    /// Pixel samples that were NaN or infinite (left out of the image).
+    pub nan_samples: u64,
+    pub inf_samples: u64,
     pub partial: bool,
-    /// Phases the scene did not need, each with the reason.
+    /// Phases the scene did not need: `{phase: reason}`.
     pub skipped: std::collections::BTreeMap<String, String>,
     pub photon_growth: f64,
     /// With --reference: the error after the last pass.
@@ -194,6 +203,12 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
         if let Some(path) = path {
             args::check_output(flag, path)?;
         }
+    }
+    if let Some(o) = &args.output {
+        args::check_image_extension("-o/--output", o, "exr", " (for a PNG preview, add --png FILE.png)")?;
+    }
+    if let Some(p) = &args.png {
+        args::check_image_extension("--png", p, "png", "")?;
     }
     Ok(())
 }
@@ -306,7 +321,12 @@ struct Timing {
 fn stats_json(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, film: &Film, pass_log: &PassLog<'_>, backend: BackendKind, threads: usize, timing: Timing) -> RenderStatsJson {
     let crop = crop_window(scene);
     let samples = crop.area() as f64 * f64::from(phases.spp);
+    let (photon_budget, photon_target) = match settings.photons {
+        PhotonBudget::Emitted(n) => ("emitted", n),
+        PhotonBudget::Stored(m) => ("stored", m),
+    };
     RenderStatsJson {
+        caustica_version: super::VERSION.as_str(),
         scene: args.scene.display().to_string(),
         backend: backend.name(),
         embree_version: if backend == BackendKind::Embree { embree_version() } else { None },
@@ -327,13 +347,16 @@ fn stats_json(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, phase
         rays_per_second: phases.rays_traced as f64 / (phases.seconds_render + phases.seconds_photons).max(1e-9),
         samples_per_second: samples / phases.seconds_render.max(1e-9),
         knn: settings.knn,
+        max_radius: settings.max_radius,
+        photon_budget,
+        photon_target,
         knn_queries: phases.knn_queries,
         photons_emitted: phases.photons_emitted,
         photons_stored: phases.photons_stored,
         photon_bytes: phases.photon_bytes,
         photon_chains_capped: phases.photon_chains_capped,
-        nan_pixels: film.nan_count(),
-        inf_pixels: film.inf_count(),
+        nan_samples: film.nan_count(),
+        inf_samples: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
         photon_growth: settings.photon_growth,

@@ -130,25 +130,32 @@ pub fn time_to_error(points: &[(f64, f64)], target: f64) -> Option<f64> {
     Some((t0.ln() + s.clamp(0.0, 1.0) * (t1.ln() - t0.ln())).exp())
 }
 
-/// The time-to-error table of `runs` for `targets` (default targets from the final errors).
+/// The default targets of the time-to-error table: errors every estimator reaches within the budget.
+/// With `hi` the largest final error and `top` the smallest first-pass error (so every series starts at
+/// or above `top` and ends at or below `hi`), three targets spaced geometrically from `top` down to
+/// `hi`, `top` itself excluded: `hi·(top/hi)^(2/3)`, `hi·(top/hi)^(1/3)`, `hi`. Only `hi` when no series
+/// starts above it.
+#[must_use]
+pub fn default_targets(series: &[Vec<(f64, f64)>]) -> Vec<f64> {
+    let positive = |e: &f64| e.is_finite() && *e > 0.0;
+    let finals: Vec<f64> = series.iter().filter_map(|s| s.last().map(|p| p.1)).filter(positive).collect();
+    let firsts: Vec<f64> = series.iter().filter_map(|s| s.first().map(|p| p.1)).filter(positive).collect();
+    if finals.is_empty() || firsts.is_empty() {
+        return Vec::new();
+    }
+    let hi = finals.iter().copied().fold(0.0f64, f64::max);
+    let top = firsts.iter().copied().fold(f64::INFINITY, f64::min);
+    if top <= hi {
+        return vec![hi];
+    }
+    let ratio = top / hi;
+    vec![hi * ratio.powf(2.0 / 3.0), hi * ratio.powf(1.0 / 3.0), hi]
+}
+
+/// The time-to-error table of `runs` for `targets` (empty: [`default_targets`]).
 pub fn time_to_error_table(runs: &[EstimatorRun], metric: ErrorMetric, region: Option<&str>, targets: &[f64]) -> TimeToErrorTable {
     let series: Vec<Vec<(f64, f64)>> = runs.iter().map(|r| r.rows.iter().filter_map(|row| metric.of(row, region).map(|e| (row.seconds, e))).collect()).collect();
-    let targets: Vec<f64> = if targets.is_empty() {
-        let finals: Vec<f64> = series.iter().filter_map(|s| s.last().map(|p| p.1)).filter(|e| e.is_finite() && *e > 0.0).collect();
-        if finals.is_empty() {
-            Vec::new()
-        } else {
-            let hi = finals.iter().copied().fold(0.0f64, f64::max);
-            let lo = finals.iter().copied().fold(f64::INFINITY, f64::min);
-            if hi == lo {
-                vec![hi]
-            } else {
-                vec![hi, (hi * lo).sqrt(), lo]
-            }
-        }
-    } else {
-        targets.to_vec()
-    };
+    let targets: Vec<f64> = if targets.is_empty() { default_targets(&series) } else { targets.to_vec() };
     let mut rows = Vec::new();
     for &target in &targets {
         let times: Vec<Option<f64>> = series.iter().map(|s| time_to_error(s, target)).collect();

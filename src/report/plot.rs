@@ -158,29 +158,40 @@ pub struct Panel<'a> {
 const LINE_HEIGHT: u32 = 22;
 /// Gap between panels, in pixels.
 const GAP: u32 = 4;
+/// Panels narrower than this are enlarged by a whole factor (nearest neighbour, every pixel a block)
+/// until the narrowest reaches it, so that small crops and their captions stay readable.
+const MIN_PANEL_WIDTH: u32 = 240;
+
+/// The whole factor that brings the narrowest panel to [`MIN_PANEL_WIDTH`] (1 if it is already as wide).
+fn panel_scale(panels: &[Panel<'_>]) -> u32 {
+    let narrowest = panels.iter().map(|p| p.image.width()).min().unwrap_or(1).max(1);
+    MIN_PANEL_WIDTH.div_ceil(narrowest).clamp(1, 16)
+}
 
 /// The panels in a row, each tone-mapped (`exposure` stops, `tonemap`) under its caption, as PNG bytes.
-/// Panels of different heights are top-aligned on a black background.
+/// Panels of different heights are top-aligned on a black background; small panels are enlarged by a
+/// whole factor (see [`MIN_PANEL_WIDTH`]).
 pub fn side_by_side(panels: &[Panel<'_>], exposure: f32, tonemap: Tonemap) -> anyhow::Result<Vec<u8>> {
     register_font();
     if panels.is_empty() {
         bail!("side-by-side figure: no image");
     }
+    let scale = panel_scale(panels);
     let lines = panels.iter().map(|p| p.label.lines().count()).max().unwrap_or(1).max(1) as u32;
     let caption_height = lines * LINE_HEIGHT + 6;
-    let w: u32 = panels.iter().map(|p| p.image.width()).sum::<u32>() + GAP * (panels.len() as u32 - 1);
-    let h: u32 = panels.iter().map(|p| p.image.height()).max().unwrap_or(1) + caption_height;
+    let w: u32 = panels.iter().map(|p| p.image.width() * scale).sum::<u32>() + GAP * (panels.len() as u32 - 1);
+    let h: u32 = panels.iter().map(|p| p.image.height() * scale).max().unwrap_or(1) + caption_height;
     let mut rgb = vec![0u8; (w as usize) * (h as usize) * 3];
     let mut x_off = 0u32;
     for p in panels {
-        for y in 0..p.image.height() {
-            for x in 0..p.image.width() {
-                let c = display_rgb8(p.image.get(x, y), exposure, tonemap);
+        for y in 0..p.image.height() * scale {
+            for x in 0..p.image.width() * scale {
+                let c = display_rgb8(p.image.get(x / scale, y / scale), exposure, tonemap);
                 let i = (((y + caption_height) as usize) * (w as usize) + (x + x_off) as usize) * 3;
                 rgb[i..i + 3].copy_from_slice(&c);
             }
         }
-        x_off += p.image.width() + GAP;
+        x_off += p.image.width() * scale + GAP;
     }
     {
         let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
@@ -188,12 +199,12 @@ pub fn side_by_side(panels: &[Panel<'_>], exposure: f32, tonemap: Tonemap) -> an
         for p in panels {
             // Shrink the text of narrow panels so that the caption fits (≈ 0.55 em per character).
             let longest = p.label.lines().map(|l| l.chars().count()).max().unwrap_or(1).max(1) as f64;
-            let size = (f64::from(p.image.width().saturating_sub(8)) / (0.55 * longest)).clamp(8.0, 18.0);
+            let size = (f64::from((p.image.width() * scale).saturating_sub(8)) / (0.55 * longest)).clamp(8.0, 18.0);
             let style = TextStyle::from((FONT, size).into_font()).color(&WHITE);
             for (i, line) in p.label.lines().enumerate() {
                 root.draw_text(line, &style, (x_off + 4, 4 + (i as i32) * LINE_HEIGHT as i32)).map_err(|e| anyhow!("side-by-side caption: {e}"))?;
             }
-            x_off += (p.image.width() + GAP) as i32;
+            x_off += (p.image.width() * scale + GAP) as i32;
         }
         root.present().map_err(|e| anyhow!("side-by-side figure: {e}"))?;
     }

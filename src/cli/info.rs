@@ -1,0 +1,147 @@
+//! `caustica info SCENE.toml...`: what a render of the scene would do, without rendering: film and
+//! settings, triangles, materials, lights, whether a photon pass will run (and why not), and the memory
+//! the largest structures will need.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use super::Outcome;
+use crate::bsdf::Bsdf;
+use crate::film::PixelSum;
+use crate::light::Light;
+use crate::math::Vec3;
+use crate::photon::{Photon, PhotonBudget};
+use crate::render::{photon_pass_needed, RenderSettings};
+use crate::scene::{Estimator, Scene};
+
+/// Arguments of `caustica info`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct InfoArgs {
+    /// Scene files (TOML).
+    #[arg(required = true)]
+    pub scenes: Vec<PathBuf>,
+}
+
+/// Prints the description of every scene.
+pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
+    for path in &args.scenes {
+        let scene = Scene::load(path)?;
+        print!("{}", describe(&scene));
+    }
+    Ok(Outcome::Done)
+}
+
+fn bsdf_kind(b: &Bsdf) -> &'static str {
+    match b {
+        Bsdf::Diffuse { .. } => "diffuse",
+        Bsdf::Conductor { .. } => "conductor",
+        Bsdf::RoughConductor { .. } => "roughconductor",
+        Bsdf::Dielectric { .. } => "dielectric",
+        Bsdf::Blend { .. } => "blendbsdf",
+    }
+}
+
+fn light_kind(l: &Light) -> &'static str {
+    match l {
+        Light::Area(_) => "area",
+        Light::Env(_) => "envmap",
+        Light::Constant { .. } => "constant",
+    }
+}
+
+/// `{kind: count}` in first-seen order, as `2 diffuse, 1 conductor`.
+fn tally<'a>(kinds: impl Iterator<Item = &'a str>) -> String {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for k in kinds {
+        match counts.iter_mut().find(|(name, _)| *name == k) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((k, 1)),
+        }
+    }
+    counts.iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ")
+}
+
+/// Bytes as `12.3 MB` (powers of 1000).
+fn mb(bytes: u64) -> String {
+    format!("{:.1} MB", bytes as f64 / 1e6)
+}
+
+/// The text `info` prints for one scene.
+#[must_use]
+pub fn describe(scene: &Scene) -> String {
+    let settings = RenderSettings::from_scene(scene);
+    let crop = scene.camera.crop();
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", scene.path.display());
+    let _ = writeln!(
+        s,
+        "  film        {}×{} (crop {},{},{},{}: {} pixels), {} spp, seed {}",
+        scene.camera.width(),
+        scene.camera.height(),
+        crop.x0,
+        crop.y0,
+        crop.x1,
+        crop.y1,
+        crop.area(),
+        settings.spp,
+        settings.seed
+    );
+    let (centre, radius) = scene.bounds.bounding_sphere();
+    let _ = writeln!(s, "  geometry    {} triangles, {} vertices, bounding sphere centre {} radius {radius:.4}", scene.triangle_count(), scene.mesh.positions.len(), fmt_vec(centre));
+    let delta = scene.bsdfs.iter().filter(|b| b.has_delta()).count();
+    let _ = writeln!(s, "  materials   {} ({}); {delta} with a delta lobe (mirror/glass)", scene.bsdfs.len(), tally(scene.bsdfs.iter().map(bsdf_kind)));
+    let lights = scene.lights.lights();
+    let _ = writeln!(s, "  lights      {} ({}), total power {:.4}", lights.len(), if lights.is_empty() { "none".into() } else { tally(lights.iter().map(light_kind)) }, scene.lights.total_power());
+    let _ = writeln!(s, "  estimator   {} (k = {}, max radius {:.4})", settings.estimator.name(), settings.knn, settings.max_radius);
+    let _ = writeln!(s, "  photon pass {}", photon_pass(scene, settings.estimator, settings.photons));
+    if settings.estimator == Estimator::Pt {
+        let _ = writeln!(s, "  with pm/mis {}", photon_pass(scene, Estimator::Mis, settings.photons));
+    }
+    let _ = writeln!(s, "  memory      {}", memory(scene, &settings));
+    s
+}
+
+fn fmt_vec(v: Vec3) -> String {
+    format!("({:.3}, {:.3}, {:.3})", v.x, v.y, v.z)
+}
+
+/// Whether a render with `estimator` traces photons, and how many, or why not.
+fn photon_pass(scene: &Scene, estimator: Estimator, budget: PhotonBudget) -> String {
+    match photon_pass_needed(scene, estimator) {
+        Ok(()) => format!("yes: {} per pass", describe_budget(budget)),
+        Err(reason) => format!("no: {reason}"),
+    }
+}
+
+fn describe_budget(b: PhotonBudget) -> String {
+    match b {
+        PhotonBudget::Emitted(n) => format!("{n} photons emitted"),
+        PhotonBudget::Stored(m) => format!("emit until {m} caustic photons are stored"),
+    }
+}
+
+/// The largest allocations of a render: the triangle soup with its per-vertex normals and uvs and
+/// per-triangle material and flag, the film (one [`PixelSum`] per pixel of the crop window), and the
+/// photon map of one pass (at most one stored [`Photon`] per emitted photon, plus ~10% for kd-tree
+/// nodes; with a stored target, the target). The intersection backend's own structure is not counted.
+fn memory(scene: &Scene, settings: &RenderSettings) -> String {
+    let m = &scene.mesh;
+    let vertex = std::mem::size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
+    let mesh = m.positions.len() as u64 * vertex + m.indices.len() as u64 * (12 + 4 + 1);
+    let film = scene.camera.crop().area() * std::mem::size_of::<PixelSum>() as u64;
+    let photons = if photon_pass_needed(scene, settings.estimator).is_ok() {
+        let n = match settings.photons {
+            PhotonBudget::Emitted(n) | PhotonBudget::Stored(n) => n,
+        };
+        n * std::mem::size_of::<Photon>() as u64 * 11 / 10
+    } else {
+        0
+    };
+    format!(
+        "about {} (mesh {}, film {}, photon map {}; the intersection backend's structure comes on top)",
+        mb(mesh + film + photons),
+        mb(mesh),
+        mb(film),
+        mb(photons)
+    )
+}
