@@ -209,6 +209,11 @@ fn width_or_height_alone_keeps_the_aspect_ratio() {
     assert_eq!(size(&render_stats(&dir, &["--height", "3"])), (4, 3));
     assert_eq!(size(&render_stats(&dir, &["--width", "5"])), (5, 4)); // 3.75 rounds to 4
     assert_eq!(size(&render_stats(&dir, &["--width", "5", "--height", "5"])), (5, 5));
+    // Mitsuba's -t and pbrt-v4's --nthreads / --outfile.
+    assert_eq!(render_stats(&dir, &["-t", "1"])["threads"].as_u64(), Some(1));
+    assert_eq!(render_stats(&dir, &["--nthreads", "2"])["threads"].as_u64(), Some(2));
+    let out = Command::new(BIN).args(["render", "good.toml", "-q", "--outfile", "b.exr"]).current_dir(&dir).output().unwrap();
+    assert!(out.status.success() && dir.join("b.exr").is_file(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
 #[test]

@@ -106,7 +106,7 @@ pub fn exposure(s: &str) -> Result<f32, String> {
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RunArgs {
     /// Worker threads [default: all cores].
-    #[arg(long, value_parser = threads)]
+    #[arg(short = 't', long, visible_alias = "nthreads", value_parser = threads)]
     pub threads: Option<usize>,
     /// Seed of the random streams [default: the scene's `integrator.seed`, else 0].
     #[arg(long)]

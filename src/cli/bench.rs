@@ -21,7 +21,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     pub rays: u64,
     /// Worker threads for building and tracing [default: all cores].
-    #[arg(long, value_parser = args::threads)]
+    #[arg(short = 't', long, value_parser = args::threads)]
     pub threads: Option<usize>,
     /// Also write the results as JSON to this file (atomically).
     #[arg(long, value_name = "OUT")]

@@ -32,7 +32,7 @@ pub struct RenderArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// Output EXR (float32 RGB). Default: the scene's name with `.exr`, in the current directory.
-    #[arg(short = 'o', long = "output")]
+    #[arg(short = 'o', long = "output", visible_alias = "outfile")]
     pub output: Option<PathBuf>,
     /// Also write an sRGB PNG preview here.
     #[arg(long)]
