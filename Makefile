@@ -1,5 +1,5 @@
 # The two set-up commands of the README:
-#   make demo   installs what is missing, builds, renders the demo scene to out/
+#   make demo   installs what is missing, builds, renders the demo scene with mis and pt/pm/mis side by side to out/
 #   make test   installs what is missing, runs every test (Embree 3 system library, then Embree 4)
 CARGO ?= cargo
 BIN := target/release/caustica
@@ -12,10 +12,15 @@ setup:
 build: setup
 	$(CARGO) build --release
 
+# The demo: cornell-caustics rendered with the paper's method (mis) for 10 s, then pt, pm and mis for 15 s
+# each (equal time), side by side with their RMSE against the Mitsuba reference shipped in the repository.
+REF := scenes/reference/cornell-caustics/mitsuba-path-9984spp.exr
 demo: build
 	mkdir -p out
-	$(BIN) render scenes/cornell-caustics.toml --spp 64 -o out/cornell-caustics.exr --png out/cornell-caustics.png --stats out/cornell-caustics.json
-	@echo "wrote out/cornell-caustics.exr, out/cornell-caustics.png and out/cornell-caustics.json"
+	$(BIN) render scenes/cornell-caustics.toml --estimator mis --time-limit 10 -o out/cornell-caustics.exr --png out/cornell-caustics.png --stats out/cornell-caustics.json
+	$(BIN) converge scenes/cornell-caustics.toml --reference $(REF) --time-budget 15 --region caustic=62%,86%,80%,94% -q -o out/cornell-caustics-converge
+	cp out/cornell-caustics-converge/side-by-side.png out/cornell-caustics-side-by-side.png
+	@echo "wrote out/cornell-caustics.exr (.png, .json) and out/cornell-caustics-side-by-side.png (pt, pm, mis at equal time, RMSE against $(REF))"
 
 test: setup
 	$(CARGO) test --release

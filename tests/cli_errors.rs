@@ -229,3 +229,19 @@ fn stats_follow_the_documented_schema() {
     // `skipped` is an object {phase: reason} (no environment map here).
     assert!(v["skipped"]["environment importance sampling"].is_string(), "{v}");
 }
+
+#[test]
+fn several_scenes_in_one_render_call() {
+    let dir = case_dir("several");
+    write(&dir, "a.toml", GOOD_SCENE);
+    write(&dir, "b.toml", GOOD_SCENE);
+    std::fs::create_dir(dir.join("sub")).unwrap();
+    write(&dir.join("sub"), "a.toml", GOOD_SCENE);
+    // Options that name one scene's file are refused, as are two scenes with one output name.
+    expect_error(&dir, &["render", "a.toml", "b.toml", "-q", "-o", "x.exr"], &["-o", "several scenes"]);
+    expect_error(&dir, &["render", "a.toml", "b.toml", "-q", "--stats", "x.json"], &["--stats"]);
+    expect_error(&dir, &["render", "a.toml", "sub/a.toml", "-q"], &["sub/a.toml", "a.exr"]);
+    let out = Command::new(BIN).args(["render", "a.toml", "b.toml", "-q"]).current_dir(&dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(dir.join("a.exr").is_file() && dir.join("b.exr").is_file());
+}

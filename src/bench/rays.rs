@@ -5,13 +5,17 @@
 //!   parallel work item of [`CHUNK`] rays is one coherent tile;
 //! - *incoherent*: origins uniform over the surface area, offset by the one offset rule
 //!   ([`offset_ray_origin`] with [`barycentric_point_error`]), cosine-distributed directions about the
-//!   geometric normal of a randomly chosen side;
-//! - *shadow*: occlusion between two random surface points, both ends offset, `t ∈ [0, 1 − 10⁻⁴]` with the
-//!   unnormalised direction between the offset end points (pbrt-v4's `SpawnRayTo`).
+//!   geometric normal of a randomly chosen side, `t ≥ spawn_t_min` as the renderer's spawned rays;
+//! - *shadow*: occlusion between two random surface points, both ends offset, `t ∈ [spawn_t_min, 1 − 10⁻⁴]`
+//!   with the unnormalised direction between the offset end points (pbrt-v4's `SpawnRayTo`).
+//!
+//! Without the renderer's `spawn_t_min`, a ray leaving a large triangle (the 20-unit floor of
+//! `teapot-glossy.toml`) can be reported hitting that same triangle at `t ≈ 0` by one backend's rounding
+//! and not by the other's: such self-hits were the closest-hit disagreements between Embree and the BVH.
 
 use rayon::prelude::*;
 
-use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Ray, Vec3};
+use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec3};
 use crate::mesh::TriangleMesh;
 use crate::sampler::Sampler;
 
@@ -46,7 +50,7 @@ impl RaySets {
                 let p = surface.sample(&mut s);
                 let ng = if s.next_1d() < 0.5 { p.ng } else { -p.ng };
                 let dir = Frame::from_normal(ng).to_world(cosine_hemisphere(s.next_1d(), s.next_1d()));
-                Ray::new(offset_ray_origin(p.p, p.p_error, ng, dir), dir)
+                Ray::segment(offset_ray_origin(p.p, p.p_error, ng, dir), dir, spawn_t_min(p.p_error, dir), f32::INFINITY)
             })
             .collect();
         let shadow = (0..n as u64)
@@ -56,7 +60,7 @@ impl RaySets {
                 let (a, b) = (surface.sample(&mut s), surface.sample(&mut s));
                 let from = offset_ray_origin(a.p, a.p_error, a.ng, b.p - a.p);
                 let to = offset_ray_origin(b.p, b.p_error, b.ng, a.p - b.p);
-                Ray::segment(from, to - from, 0.0, 1.0 - SHADOW_EPSILON)
+                Ray::segment(from, to - from, spawn_t_min(a.p_error, to - from), 1.0 - SHADOW_EPSILON)
             })
             .collect();
         Ok(Self {

@@ -29,8 +29,10 @@ use crate::scene::{Estimator, Scene};
 /// Arguments of `caustica render`. Command-line values override the scene file.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
+    /// The scene file(s) (TOML). With several, each is rendered in turn to `<scene name>.exr` in the
+    /// current directory (then -o, --png, --stats, --crop, --reference and --error-log are refused).
+    #[arg(required = true, num_args = 1.., value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
     /// Output EXR (float32 RGB). Default: the scene's name with `.exr`, in the current directory.
     #[arg(short = 'o', long = "output", visible_alias = "outfile")]
     pub output: Option<PathBuf>,
@@ -148,9 +150,47 @@ fn crop(s: &str) -> Result<Rect, String> {
 
 /// Runs `caustica render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
-    let t_start = Instant::now();
+    check_scenes(args)?;
     check_outputs(args)?;
-    let scene = load_scene(args)?;
+    let cancel = cancel_on_ctrl_c();
+    for path in &args.scenes {
+        if render_one(args, path, &cancel)? == Outcome::Interrupted {
+            return Ok(Outcome::Interrupted);
+        }
+    }
+    Ok(Outcome::Done)
+}
+
+/// With several scenes: no option that names one scene's file or window, and distinct output names.
+fn check_scenes(args: &RenderArgs) -> anyhow::Result<()> {
+    if args.scenes.len() < 2 {
+        return Ok(());
+    }
+    let single = [
+        ("-o/--output", args.output.is_some()),
+        ("--png", args.png.is_some()),
+        ("--stats", args.stats.is_some()),
+        ("--crop", args.crop.is_some()),
+        ("--reference", args.reference.is_some()),
+    ];
+    if let Some((flag, _)) = single.iter().find(|(_, given)| *given) {
+        bail!("{flag} applies to one scene; with several scenes each is written to <scene name>.exr in the current directory");
+    }
+    let mut stems: Vec<String> = Vec::new();
+    for path in &args.scenes {
+        let stem = args::scene_stem(path);
+        if stems.contains(&stem) {
+            bail!("{}: another scene is also named {stem:?}, and both would be written to {stem}.exr", path.display());
+        }
+        stems.push(stem);
+    }
+    Ok(())
+}
+
+/// Renders one scene and writes its outputs.
+fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
+    let t_start = Instant::now();
+    let scene = load_scene(args, scene_path)?;
     let settings = settings(args, &scene);
     let tracker = load_reference(args, &scene)?;
     let backend = args.run.backend();
@@ -159,19 +199,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
     let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
     let seconds_setup = t_start.elapsed().as_secs_f64();
 
-    let cancel = cancel_on_ctrl_c();
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
     let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
     let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crop_window(&scene))?;
     let phases = pool.install(|| {
-        render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
+        render(&scene, accel.as_ref(), &settings, &mut film, cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
             progress.tile_done(samples);
         })
     })?;
     progress.finish();
 
     // The finished image is written first: no later failure may lose it.
-    let output = output_path(args);
+    let output = output_path(args, scene_path);
     let image = film.image();
     write_exr(&output, &image)?;
     if let Some(e) = pass_log.failure.take() {
@@ -181,7 +220,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
         write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
     }
     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
-    let stats = stats_json(args, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
+    let stats = stats_json(args, scene_path, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats)?;
     }
@@ -214,8 +253,8 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// The scene with `--width`/`--height` and `--crop` applied.
-fn load_scene(args: &RenderArgs) -> anyhow::Result<Scene> {
-    let mut scene = Scene::load(&args.scene)?;
+fn load_scene(args: &RenderArgs, path: &Path) -> anyhow::Result<Scene> {
+    let mut scene = Scene::load(path)?;
     args.run.set_resolution(&mut scene)?;
     if let Some(c) = args.crop {
         let (w, h) = (scene.camera.width(), scene.camera.height());
@@ -261,8 +300,8 @@ fn load_reference(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Option<Err
 }
 
 /// `-o`, or the scene's name with `.exr` in the current directory.
-fn output_path(args: &RenderArgs) -> PathBuf {
-    args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.exr", args::scene_stem(&args.scene))))
+fn output_path(args: &RenderArgs, scene_path: &Path) -> PathBuf {
+    args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.exr", args::scene_stem(scene_path))))
 }
 
 /// A flag that the first Ctrl-C sets (the render then stops at the next tile and writes what it has); a
@@ -318,7 +357,7 @@ struct Timing {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn stats_json(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, film: &Film, pass_log: &PassLog<'_>, backend: BackendKind, threads: usize, timing: Timing) -> RenderStatsJson {
+fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, film: &Film, pass_log: &PassLog<'_>, backend: BackendKind, threads: usize, timing: Timing) -> RenderStatsJson {
     let crop = crop_window(scene);
     let samples = crop.area() as f64 * f64::from(phases.spp);
     let (photon_budget, photon_target) = match settings.photons {
@@ -327,7 +366,7 @@ fn stats_json(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, phase
     };
     RenderStatsJson {
         caustica_version: super::VERSION.as_str(),
-        scene: args.scene.display().to_string(),
+        scene: scene_path.display().to_string(),
         backend: backend.name(),
         embree_version: if backend == BackendKind::Embree { embree_version() } else { None },
         width: scene.camera.width(),
