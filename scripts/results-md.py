@@ -88,8 +88,8 @@ names = {"teapot": ("teapot-glossy", "floor"), "cornell": ("cornell-caustics", "
 for s, (scene, reg) in names.items():
     c = conv[s]
     w(f"## {2 if s == 'teapot' else 3}. {scene} at equal time\n")
-    w(f"`caustica converge scenes/{scene}.toml`: each estimator renders {c['time_budget']:g} s (whole passes of "
-      f"{c['pass_spp']} spp; the last pass may run over), photons per pass {c['photons']} × {c['photon_growth']:g}^pass, "
+    w(f"`caustica converge scenes/{scene}.toml`: each estimator renders {c['time_budget']:g} s (passes of "
+      f"{c['pass_spp']} spp, the last one cut at the budget), photons per pass {c['photons']} × {c['photon_growth']:g}^pass, "
       f"k = {c['knn']}, {c['width']}×{c['height']}. Left to right: the estimators at equal time, then the reference "
       + (f"(only the {reg} region is shown here; the full frames are in build/report/converge-{s}/).\n" if s == "teapot" else
          f"; second picture: the {reg} region.\n"))
