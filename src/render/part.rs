@@ -200,10 +200,20 @@ pub enum MergeError {
     Foreign { paths: Vec<PathBuf>, first: String, found: String, expected: String },
     #[error("part {part} is given twice: {} and {}", first.display(), second.display())]
     Duplicate { part: Part, first: PathBuf, second: PathBuf },
-    #[error("{} of {count} missing: {} (have {}); re-run {} or merge with --allow-missing", if missing.len() == 1 { "part" } else { "parts" }, missing.iter().map(|i| format!("{i}/{count}")).collect::<Vec<_>>().join(", "), have.iter().map(u32::to_string).collect::<Vec<_>>().join(", "), if missing.len() == 1 { "it" } else { "them" })]
+    #[error("{} missing (have {}): run {} again, or merge with --allow-missing", missing_text(*count, missing), have.iter().map(|i| format!("{i}/{count}")).collect::<Vec<_>>().join(", "), if missing.len() == 1 { "it" } else { "them" })]
     Missing { count: u32, missing: Vec<u32>, have: Vec<u32> },
     #[error("{path}: {source}")]
     Film { path: PathBuf, source: FilmError },
+}
+
+/// "part 1/4 is" / "parts 1/4, 3/4 are".
+fn missing_text(count: u32, missing: &[u32]) -> String {
+    let list = missing.iter().map(|i| format!("{i}/{count}")).collect::<Vec<_>>().join(", ");
+    if missing.len() == 1 {
+        format!("part {list} is")
+    } else {
+        format!("parts {list} are")
+    }
 }
 
 /// A part read back from its file.
