@@ -216,7 +216,9 @@ pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), Str
     Ok(())
 }
 
-/// Renders `scene` into `film`. `cancel` is polled per tile (Ctrl-C); `on_pass` sees the film after
+/// Renders `scene` into `film`. `cancel` is polled per tile and every few photons of a photon pass
+/// (Ctrl-C; an interrupted photon pass ends the render, marked partial); the time limit also stops a
+/// photon pass (the first pass then renders with the photons traced so far); `on_pass` sees the film after
 /// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
 ///
 /// Time spent inside `on_pass` (error evaluation, logs) is not rendering: it is left out of
@@ -277,7 +279,20 @@ pub fn render_share(
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass))?;
+            // Ctrl-C and the time limit stop the photon pass too (polled every few photons).
+            let spent_before = callback_seconds;
+            let stop = || {
+                cancel.load(Ordering::Relaxed) || settings.time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() - spent_before >= limit)
+            };
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass), &stop)?;
+            if ps.stopped && (cancel.load(Ordering::Relaxed) || spp_done > 0) {
+                // Interrupted, or out of time after at least one whole pass: this pass is not rendered.
+                stats.seconds_photons += ps.seconds_trace;
+                stats.partial |= cancel.load(Ordering::Relaxed);
+                break;
+            }
+            // Out of time in the first photon pass: the photons traced so far (N = their number) serve
+            // the one eye pass, so that a time-limited render always has an image.
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -285,12 +300,12 @@ pub fn render_share(
             stats.photon_bytes = stats.photon_bytes.max(ps.bytes);
             stats.photon_chains_capped += ps.chains_capped;
             stats.rays_traced += ps.rays;
-            map = Some(m);
+            map = (ps.emitted > 0).then_some(m);
         }
         let tracer = PathTracer {
             scene,
             accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius),
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1),
             alpha: this_pass as f32,
         };
         let t_pass = Instant::now();
