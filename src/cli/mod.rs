@@ -8,6 +8,7 @@ pub mod bench;
 pub mod compare;
 pub mod converge;
 pub mod info;
+pub mod merge;
 pub mod photon_args;
 pub mod progress;
 pub mod render;
@@ -37,8 +38,10 @@ struct Cli {
 enum Command {
     /// Measure build time and ray throughput of the intersection backends on meshes or scenes.
     Bench(bench::BenchArgs),
-    /// Render a scene file to EXR (and PNG), with statistics.
+    /// Render scene files to EXR (and PNG), with statistics.
     Render(render::RenderArgs),
+    /// Add the partial films of `render --part I/N` into the image of the whole render.
+    Merge(merge::MergeArgs),
     /// Compare an image with a reference: RMSE, relMSE, block and region errors.
     Compare(compare::CompareArgs),
     /// Error against time of the caustic estimators at equal render time, with plots and images.
@@ -74,6 +77,7 @@ pub fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Render(args) => render::run(args),
+        Command::Merge(args) => merge::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Converge(args) => converge::run(args),
         Command::Info(args) => info::run(args),

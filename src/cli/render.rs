@@ -21,7 +21,8 @@ use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::io::{write_bytes_atomic, write_json_atomic};
 use crate::film::{write_exr, write_png, Film, Rect};
 use crate::photon::PhotonBudget;
-use crate::render::{render, RenderPhaseStats, RenderSettings};
+use crate::render::part::{self, Part, PartInfo};
+use crate::render::{render_share, RenderPhaseStats, RenderSettings, Share, TILE_SIZE};
 use crate::report::error_log::{progress_text, ErrorTracker, PassError};
 use crate::scene::settings::defaults;
 use crate::scene::{Estimator, Scene};
@@ -79,6 +80,10 @@ pub struct RenderArgs {
     /// `62%`, exclusive ends). Repeatable.
     #[arg(long = "region", requires = "reference")]
     pub regions: Vec<String>,
+    /// Render only part I (0-based) of N of the image (a share of its passes, or of its tiles when it has
+    /// fewer passes than N) into a partial film at -o, for `caustica merge`. Needs a fixed sample count.
+    #[arg(long, value_name = "I/N", value_parser = |s: &str| s.parse::<Part>())]
+    pub part: Option<Part>,
     /// No progress bar.
     #[arg(long, short = 'q')]
     pub quiet: bool,
@@ -129,6 +134,19 @@ pub struct RenderStatsJson {
     /// With --reference: the error after the last pass.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<ErrorJson>,
+    /// With --part: which part, its share and the render's fingerprint.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part: Option<PartJson>,
+}
+
+/// The `part` key of the stats JSON.
+#[derive(Debug, Serialize)]
+pub struct PartJson {
+    pub index: u32,
+    pub count: u32,
+    pub share: &'static str,
+    pub fingerprint: String,
+    pub passes_rendered: u32,
 }
 
 /// The `error` key of the stats JSON: the reference and the last pass's figures.
@@ -172,6 +190,7 @@ fn check_scenes(args: &RenderArgs) -> anyhow::Result<()> {
         ("--stats", args.stats.is_some()),
         ("--crop", args.crop.is_some()),
         ("--reference", args.reference.is_some()),
+        ("--part", args.part.is_some()),
     ];
     if let Some((flag, _)) = single.iter().find(|(_, given)| *given) {
         bail!("{flag} applies to one scene; with several scenes each is written to <scene name>.exr in the current directory");
@@ -202,8 +221,12 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
     let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
     let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crop_window(&scene))?;
+    let share = match args.part {
+        Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
+        None => Share::All,
+    };
     let phases = pool.install(|| {
-        render(&scene, accel.as_ref(), &settings, &mut film, cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
+        render_share(&scene, accel.as_ref(), &settings, share, &mut film, cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
             progress.tile_done(samples);
         })
     })?;
@@ -212,7 +235,13 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     // The finished image is written first: no later failure may lose it.
     let output = output_path(args, scene_path);
     let image = film.image();
-    write_exr(&output, &image)?;
+    let part_json = match args.part {
+        Some(p) => Some(write_part(scene_path, &scene, &settings, &phases, &film, share, p, backend, &output, t_start)?),
+        None => {
+            write_exr(&output, &image)?;
+            None
+        }
+    };
     if let Some(e) = pass_log.failure.take() {
         return Err(e.context(format!("the image was written to {}", output.display())));
     }
@@ -220,7 +249,8 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
         write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
     }
     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
-    let stats = stats_json(args, scene_path, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
+    let mut stats = stats_json(args, scene_path, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
+    stats.part = part_json;
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats)?;
     }
@@ -230,8 +260,17 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
 }
 
-/// Checks that every output can be written (directories exist, names are files), before rendering.
+/// Checks that every output can be written (directories exist, names are files), and that `--part`
+/// goes with a fixed sample count and no reference, before rendering.
 fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
+    if args.part.is_some() {
+        if args.reference.is_some() {
+            bail!("--part renders a share of the image: compare the merged image instead of using --reference");
+        }
+        if args.time_limit.is_some() {
+            bail!("--part: {}", part::PartError::TimeLimited);
+        }
+    }
     let outputs = [
         ("-o/--output", args.output.as_deref()),
         ("--png", args.png.as_deref()),
@@ -300,8 +339,46 @@ fn load_reference(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Option<Err
 }
 
 /// `-o`, or the scene's name with `.exr` in the current directory.
+/// With `--part I/N`: `<scene name>.part-I-of-N.exr`.
 fn output_path(args: &RenderArgs, scene_path: &Path) -> PathBuf {
-    args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.exr", args::scene_stem(scene_path))))
+    let stem = args::scene_stem(scene_path);
+    args.output.clone().unwrap_or_else(|| match args.part {
+        Some(p) => PathBuf::from(format!("{stem}.part-{}-of-{}.exr", p.index, p.count)),
+        None => PathBuf::from(format!("{stem}.exr")),
+    })
+}
+
+/// Writes the partial film of `--part` (refused when interrupted: an incomplete part cannot be merged).
+#[allow(clippy::too_many_arguments)]
+fn write_part(
+    scene_path: &Path,
+    scene: &Scene,
+    settings: &RenderSettings,
+    phases: &RenderPhaseStats,
+    film: &Film,
+    share: Share,
+    p: Part,
+    backend: BackendKind,
+    output: &Path,
+    t_start: Instant,
+) -> anyhow::Result<PartJson> {
+    if phases.partial {
+        bail!("interrupted: part {p} was not written (an incomplete part cannot be merged); run it again");
+    }
+    let fingerprint = part::fingerprint(scene, settings, backend, p.count);
+    let info = PartInfo {
+        part: p,
+        fingerprint: fingerprint.clone(),
+        share: PartInfo::share_name(share).to_string(),
+        passes: settings.pass_count().unwrap_or(0),
+        tiles: film.tiles(TILE_SIZE).len() as u32,
+        spp: settings.spp,
+        scene: scene_path.display().to_string(),
+        seconds_total: t_start.elapsed().as_secs_f64(),
+        phases: phases.clone(),
+    };
+    part::write_part(output, film, &info)?;
+    Ok(PartJson { index: p.index, count: p.count, share: PartInfo::share_name(share), fingerprint, passes_rendered: phases.passes_rendered })
 }
 
 /// A flag that the first Ctrl-C sets (the render then stops at the next tile and writes what it has); a
@@ -403,6 +480,7 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
             (Some(last), Some(r)) => Some(ErrorJson { reference: r.display().to_string(), last: last.clone() }),
             _ => None,
         },
+        part: None,
     }
 }
 

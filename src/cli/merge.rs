@@ -1,0 +1,81 @@
+//! `caustica merge PART... -o OUT.exr`: adds the partial films of `render --part` into the image one
+//! render would have made (the checks and the sums are `render::part`'s).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use super::args::{self, PngArgs};
+use super::Outcome;
+use crate::film::io::write_json_atomic;
+use crate::film::{write_exr, write_png};
+use crate::render::part::{merge_parts, read_part};
+
+/// Arguments of `caustica merge`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The part files written by `caustica render --part I/N` (any order).
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// Output EXR (float32 RGB).
+    #[arg(short = 'o', long = "output")]
+    pub output: PathBuf,
+    /// Also write an sRGB PNG preview here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    #[command(flatten)]
+    pub png_args: PngArgs,
+    /// Write the merge's statistics (parts, missing parts, summed work) as JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Merge even if some parts are missing (the image then has fewer samples, or black tiles); the
+    /// missing parts are listed on stderr and in the stats.
+    #[arg(long)]
+    pub allow_missing: bool,
+    /// No summary line.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
+}
+
+/// Runs `caustica merge`.
+pub fn run(args: &MergeArgs) -> anyhow::Result<Outcome> {
+    let t = std::time::Instant::now();
+    for (flag, path) in [("-o/--output", Some(args.output.as_path())), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())] {
+        if let Some(path) = path {
+            args::check_output(flag, path)?;
+        }
+    }
+    args::check_image_extension("-o/--output", &args.output, "exr", "")?;
+    if let Some(p) = &args.png {
+        args::check_image_extension("--png", p, "png", "")?;
+    }
+    let parts = args.parts.iter().map(|p| read_part(p)).collect::<Result<Vec<_>, _>>()?;
+    let (film, mut stats) = merge_parts(parts, args.allow_missing)?;
+    let image = film.image();
+    write_exr(&args.output, &image)?;
+    if let Some(png) = &args.png {
+        write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
+    }
+    let missing: Vec<String> = stats.missing.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
+    if !missing.is_empty() {
+        eprintln!("warning: merged without part(s) {}: the image has fewer samples than the render asked for", missing.join(", "));
+    }
+    stats.seconds_merge = t.elapsed().as_secs_f64();
+    if let Some(p) = &args.stats {
+        write_json_atomic(p, &stats).with_context(|| format!("--stats {}", p.display()))?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "{}: merged {} of {} parts ({} shares), {} spp; parts took {:.2} s in all (longest {:.2} s), merge {:.2} s",
+            args.output.display(),
+            stats.merged.len(),
+            stats.parts,
+            stats.share,
+            stats.spp,
+            stats.seconds_parts_sum,
+            stats.seconds_parts_max,
+            stats.seconds_merge
+        );
+    }
+    Ok(Outcome::Done)
+}
