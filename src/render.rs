@@ -3,8 +3,10 @@
 //!
 //! A *pass* renders `pass_spp` samples for every pixel of the crop window. With a sample budget and no
 //! time limit there is one pass of `spp` samples and one photon map (the paper's configuration: α = spp).
-//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map with its
-//! own seed (α = `pass_spp`), and the film averages over passes.
+//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map of the same
+//! budget with its own seed (α = `pass_spp`), the density estimate of pass `p` uses the fraction
+//! [`area_scale_for_pass`] of its k-NN area (the progressive schedule of method.md §6), and the film
+//! averages over passes.
 //!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
@@ -40,9 +42,20 @@ pub struct RenderSettings {
     pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
-    /// Photon budget growth per pass: pass `p` (from 0) uses `photons × photon_growth^p`, so that the
-    /// kernel bias of `pm`/`mis` falls as a progressive render goes on (1 = the same budget every pass).
-    pub photon_growth: f64,
+}
+
+/// Exponent `a` of the progressive area schedule (method.md §6): Knaus & Zwicker's α = 2/3, which
+/// balances the asymptotic rates of the kernel bias and the variance of the average of the passes.
+pub const PROGRESSIVE_AREA_EXPONENT: f64 = 2.0 / 3.0;
+
+/// The fraction of the k-NN area that the density estimate of pass `pass` (from 0) uses:
+/// `s_p = (p + 1)^(a − 1)` with `a` = [`PROGRESSIVE_AREA_EXPONENT`] (method.md §6). `s_0 = 1`, so a
+/// render of one pass is the paper's estimate. The rate is that of Knaus & Zwicker's recursion
+/// `r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1)`, whose product is `Γ(i + a)/(Γ(1 + a)·Γ(i + 1)) ~ i^(a−1)/Γ(1 + a)`; the
+/// closed form depends on the pass index alone, so any subset of passes can be rendered on its own.
+#[must_use]
+pub fn area_scale_for_pass(pass: u32) -> f32 {
+    (f64::from(pass) + 1.0).powf(PROGRESSIVE_AREA_EXPONENT - 1.0) as f32
 }
 
 /// Default photon count for an image: one per pixel of the crop window, at least 100,000.
@@ -80,18 +93,6 @@ impl RenderSettings {
             },
             knn: caus.knn.max(1),
             max_radius: caus.max_radius.unwrap_or_else(|| default_max_radius(scene)),
-            photon_growth: 1.0,
-        }
-    }
-
-    /// The photon budget of pass `pass` (from 0): `photons × photon_growth^pass`, rounded, ≥ 1.
-    #[must_use]
-    pub fn photons_for_pass(&self, pass: u32) -> PhotonBudget {
-        let g = if self.photon_growth.is_finite() && self.photon_growth > 0.0 { self.photon_growth } else { 1.0 };
-        let scale = |n: u64| -> u64 { ((n as f64) * g.powi(pass.min(i32::MAX as u32) as i32)).round().clamp(1.0, f64::from(u32::MAX)) as u64 };
-        match self.photons {
-            PhotonBudget::Emitted(n) => PhotonBudget::Emitted(scale(n)),
-            PhotonBudget::Stored(m) => PhotonBudget::Stored(scale(m)),
         }
     }
 }
@@ -198,7 +199,7 @@ pub fn render(
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass))?;
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass))?;
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -211,7 +212,8 @@ pub fn render(
         let tracer = PathTracer {
             scene,
             accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius),
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius)
+                .with_area_scale(area_scale_for_pass(pass)),
             alpha: this_pass as f32,
         };
         let t_pass = Instant::now();

@@ -62,10 +62,6 @@ pub struct RenderArgs {
     pub estimator: Option<Estimator>,
     #[command(flatten)]
     pub photon: PhotonArgs,
-    /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
-    /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
-    #[arg(long, default_value_t = 1.0)]
-    pub photon_growth: f64,
     /// Write statistics as JSON here.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -119,7 +115,8 @@ pub struct RenderStatsJson {
     pub partial: bool,
     /// Phases the scene did not need, each with the reason.
     pub skipped: std::collections::BTreeMap<String, String>,
-    pub photon_growth: f64,
+    /// `a` of the progressive area schedule: pass p's density estimate uses (p+1)^(a−1) of its k-NN area.
+    pub area_exponent: f64,
     /// With --reference: the error after the last pass.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<ErrorJson>,
@@ -152,14 +149,6 @@ fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
         bail!("--crop {s:?}: expected x0,y0,x1,y1 with x0 < x1 and y0 < y1");
     }
     Ok([v[0], v[1], v[2], v[3]])
-}
-
-/// Checks `--photon-growth`: finite and ≥ 1 (below 1 the kernel bias would grow pass after pass).
-pub fn photon_growth(v: f64) -> anyhow::Result<f64> {
-    if !(v.is_finite() && v >= 1.0) {
-        bail!("--photon-growth must be a finite number ≥ 1, got {v}");
-    }
-    Ok(v)
 }
 
 /// Checks a user-given positive finite number.
@@ -240,7 +229,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         settings.estimator = estimator;
     }
     args.photon.apply(&mut settings);
-    settings.photon_growth = photon_growth(args.photon_growth)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
     let output = args.output.clone().unwrap_or_else(|| {
@@ -347,7 +335,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         inf_pixels: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
-        photon_growth: settings.photon_growth,
+        area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         error: match (&tracker, &args.reference) {
             (Some(t), Some(r)) => t.rows().last().map(|last| ErrorJson { reference: r.display().to_string(), last: last.clone() }),
             _ => None,

@@ -57,6 +57,9 @@ pub struct CausticEstimator<'a> {
     max_radius: f32,
     /// Lower bound on ΔA: coincident photons give r → 0 (method.md §3). `π·(10⁻³·r_max)²`.
     min_area: f32,
+    /// `s ∈ (0, 1]`: the estimate uses the photons within `r² = s·r²_kNN` and `ΔA = π·s·r²_kNN` (the
+    /// progressive schedule of method.md §6; 1 = the plain k-NN estimate).
+    area_scale: f32,
 }
 
 impl<'a> CausticEstimator<'a> {
@@ -65,7 +68,15 @@ impl<'a> CausticEstimator<'a> {
     pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32) -> Self {
         let map = if estimator == Estimator::Pt { None } else { map };
         let min_area = std::f32::consts::PI * (1e-3 * max_radius).powi(2);
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_area.max(f32::MIN_POSITIVE) }
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_area.max(f32::MIN_POSITIVE), area_scale: 1.0 }
+    }
+
+    /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
+    /// outside (0, 1] (or NaN) leaves the plain k-NN estimate.
+    #[must_use]
+    pub fn with_area_scale(mut self, scale: f32) -> Self {
+        self.area_scale = if scale > 0.0 && scale <= 1.0 { scale } else { 1.0 };
+        self
     }
 
     /// Whether density estimation runs at non-delta vertices (a photon map exists).
@@ -98,6 +109,8 @@ impl<'a> CausticEstimator<'a> {
 
     /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).
     /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
+    /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
+    /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut KnnResult) -> Gather {
         let Some(map) = self.map else {
             return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0 };
@@ -105,13 +118,19 @@ impl<'a> CausticEstimator<'a> {
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
         map.tree().knn(si.p, self.knn, self.max_radius, |ph| ph.wi_world().dot(ng) * wo_side > 0.0, scratch);
-        let delta_area = (std::f32::consts::PI * scratch.r2()).max(self.min_area);
+        let r2 = scratch.r2() * self.area_scale;
+        let delta_area = (std::f32::consts::PI * r2).max(self.min_area);
         let wo_local = si.frame.to_local(wo_world);
         let mut sum = Vec3::ZERO;
+        let mut used = 0u32;
         let photons = map.tree().photons();
         // q₁ = (N·ΔA/(Φ·α))·Le·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
         for nb in scratch.neighbors() {
+            if nb.dist2 > r2 {
+                continue;
+            }
+            used += 1;
             let ph = &photons[nb.index as usize];
             let wi_local = si.frame.to_local(ph.wi_world());
             let w1_f = match self.estimator {
@@ -127,7 +146,7 @@ impl<'a> CausticEstimator<'a> {
             };
             sum += w1_f * ph.power();
         }
-        Gather { l1: sum / delta_area, delta_area, photons: scratch.len() as u32 }
+        Gather { l1: sum / delta_area, delta_area, photons: used }
     }
 
     /// T2's weight for emission `le_lum` (luminance) reached from `origin` through ≥1 delta vertex.
