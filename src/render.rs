@@ -314,3 +314,33 @@ pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings:
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;
     Ok(RenderedImage { image: film.image(), stats, seconds: t.elapsed().as_secs_f64() })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The schedule of method.md §6: s₀ = 1, strictly decreasing, and the rate of Knaus & Zwicker's
+    /// recursion r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1): the ratio of the two tends to the constant Γ(1 + a).
+    #[test]
+    fn area_schedule_follows_knaus_zwicker() {
+        assert_eq!(area_scale_for_pass(0), 1.0);
+        let a = PROGRESSIVE_AREA_EXPONENT;
+        let mut kz = 1.0f64;
+        let mut previous = 1.0f32;
+        let mut ratios = Vec::new();
+        for p in 1..=100_000u32 {
+            kz *= (f64::from(p) + a) / (f64::from(p) + 1.0);
+            let s = area_scale_for_pass(p);
+            assert!(s < previous && s > 0.0, "pass {p}: {s} after {previous}");
+            previous = s;
+            if p == 1_000 || p == 100_000 {
+                ratios.push(kz / f64::from(s));
+            }
+        }
+        // Γ(1 + 2/3) = 0.9027...; the product uses (i + a)/(i + 1) from i = 1, hence Γ(2)/Γ(1 + a) times
+        // p^(a−1): kz/s → 1/Γ(1 + a) = 1.1078.
+        for r in ratios {
+            assert!((r - 1.1078).abs() < 0.01, "KZ product / closed form = {r}");
+        }
+    }
+}
