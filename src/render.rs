@@ -10,12 +10,18 @@
 //!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
+//!
+//! A process may render a [`Share`] of the passes or of the tiles ([`part`]: `render --part`); skipped
+//! passes still advance the sample index, so every (pass, tile) it renders is the one the whole render
+//! would, and the film's exact sums make the parts add up to the whole bit for bit.
+
+pub mod part;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
@@ -95,6 +101,26 @@ impl RenderSettings {
             max_radius: caus.max_radius.unwrap_or_else(|| default_max_radius(scene)),
         }
     }
+
+    /// Samples per pixel of a full pass: `pass_spp`, at least 1 and (without a time limit) at most `spp`.
+    #[must_use]
+    pub fn effective_pass_spp(&self) -> u32 {
+        if self.time_limit.is_some() {
+            self.pass_spp.max(1)
+        } else {
+            self.pass_spp.clamp(1, self.spp.max(1))
+        }
+    }
+
+    /// The number of passes of a render with a fixed sample count, ⌈spp / pass spp⌉ (the last pass takes
+    /// the remainder); `None` with a time limit, where it depends on the time.
+    #[must_use]
+    pub fn pass_count(&self) -> Option<u32> {
+        match self.time_limit {
+            Some(_) => None,
+            None => Some(self.spp.div_ceil(self.effective_pass_spp())),
+        }
+    }
 }
 
 /// A render that could not run to the end (both are internal limits, not user errors).
@@ -107,7 +133,7 @@ pub enum RenderError {
 }
 
 /// Why the photon pass (or another phase) did not run.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SkippedPhase {
     pub phase: String,
     pub reason: String,
@@ -126,7 +152,8 @@ pub struct PassInfo {
 }
 
 /// Statistics of a render's phases (method.md §5).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RenderPhaseStats {
     pub spp: u32,
     pub passes: u32,
@@ -139,8 +166,40 @@ pub struct RenderPhaseStats {
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
+    /// Passes this process rendered (fewer than `passes` when it rendered a share of the passes).
+    pub passes_rendered: u32,
     pub partial: bool,
     pub skipped: Vec<SkippedPhase>,
+}
+
+/// Which passes and tiles one process renders: all of them, or one part's share (see [`part`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Share {
+    All,
+    /// The passes `p` with `p mod count == index`, every tile.
+    Passes { index: u32, count: u32 },
+    /// Every pass, the tiles `t` (scan order of [`Film::tiles`]) with `t mod count == index`.
+    Tiles { index: u32, count: u32 },
+}
+
+impl Share {
+    /// Whether pass `pass` (from 0) is rendered.
+    #[must_use]
+    pub fn takes_pass(&self, pass: u32) -> bool {
+        match *self {
+            Share::Passes { index, count } => pass % count.max(1) == index,
+            _ => true,
+        }
+    }
+
+    /// Whether tile `tile` (index in scan order) is rendered.
+    #[must_use]
+    pub fn takes_tile(&self, tile: usize) -> bool {
+        match *self {
+            Share::Tiles { index, count } => tile % count.max(1) as usize == index as usize,
+            _ => true,
+        }
+    }
 }
 
 /// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
@@ -158,7 +217,9 @@ pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), Str
     Ok(())
 }
 
-/// Renders `scene` into `film`. `cancel` is polled per tile (Ctrl-C); `on_pass` sees the film after
+/// Renders `scene` into `film`. `cancel` is polled per tile and every few photons of a photon pass
+/// (Ctrl-C; an interrupted photon pass ends the render, marked partial); the time limit also stops a
+/// photon pass (the first pass then renders with the photons traced so far); `on_pass` sees the film after
 /// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
 ///
 /// Time spent inside `on_pass` (error evaluation, logs) is not rendering: it is left out of
@@ -168,6 +229,21 @@ pub fn render(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &RenderSettings,
+    film: &mut Film,
+    cancel: &AtomicBool,
+    on_pass: impl FnMut(&Film, &PassInfo),
+    on_tile: &(dyn Fn(u64) + Sync),
+) -> Result<RenderPhaseStats, RenderError> {
+    render_share(scene, accel, settings, Share::All, film, cancel, on_pass, on_tile)
+}
+
+/// [`render`] of the passes and tiles `share` takes (`on_pass` is called after each pass rendered).
+#[allow(clippy::too_many_arguments)]
+pub fn render_share(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    share: Share,
     film: &mut Film,
     cancel: &AtomicBool,
     mut on_pass: impl FnMut(&Film, &PassInfo),
@@ -182,8 +258,8 @@ pub fn render(
     if !scene.lights.has_env() {
         stats.skipped.push(SkippedPhase { phase: "environment importance sampling".into(), reason: "no environment map in the scene".into() });
     }
-    let pass_spp = if settings.time_limit.is_some() { settings.pass_spp.max(1) } else { settings.pass_spp.clamp(1, settings.spp.max(1)) };
-    let tiles = film.tiles(TILE_SIZE);
+    let pass_spp = settings.effective_pass_spp();
+    let tiles: Vec<_> = film.tiles(TILE_SIZE).into_iter().enumerate().filter(|(t, _)| share.takes_tile(*t)).map(|(_, tile)| tile).collect();
     let width = u64::from(film.width());
     let mut spp_done: u32 = 0;
     let mut pass: u32 = 0;
@@ -196,10 +272,28 @@ pub fn render(
         if this_pass == 0 || cancel.load(Ordering::Relaxed) {
             break;
         }
+        if !share.takes_pass(pass) {
+            spp_done += this_pass;
+            pass += 1;
+            continue;
+        }
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass))?;
+            // Ctrl-C and the time limit stop the photon pass too (polled every few photons).
+            let spent_before = callback_seconds;
+            let stop = || {
+                cancel.load(Ordering::Relaxed) || settings.time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() - spent_before >= limit)
+            };
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass), &stop)?;
+            if ps.stopped && (cancel.load(Ordering::Relaxed) || spp_done > 0) {
+                // Interrupted, or out of time after at least one whole pass: this pass is not rendered.
+                stats.seconds_photons += ps.seconds_trace;
+                stats.partial |= cancel.load(Ordering::Relaxed);
+                break;
+            }
+            // Out of time in the first photon pass: the photons traced so far (N = their number) serve
+            // the one eye pass, so that a time-limited render always has an image.
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -207,12 +301,12 @@ pub fn render(
             stats.photon_bytes = stats.photon_bytes.max(ps.bytes);
             stats.photon_chains_capped += ps.chains_capped;
             stats.rays_traced += ps.rays;
-            map = Some(m);
+            map = (ps.emitted > 0).then_some(m);
         }
         let tracer = PathTracer {
             scene,
             accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius)
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
                 .with_area_scale(area_scale_for_pass(pass)),
             alpha: this_pass as f32,
         };
@@ -258,6 +352,7 @@ pub fn render(
         stats.seconds_render += t_pass.elapsed().as_secs_f64();
         spp_done += this_pass;
         pass += 1;
+        stats.passes_rendered += 1;
         let info = PassInfo {
             pass,
             seconds: start.elapsed().as_secs_f64() - callback_seconds,

@@ -16,12 +16,13 @@
 //! [`crate::sampling::mis::mis_weight_pair`], so `w₁ + w₂ = 1` for the same path by construction.
 //!
 //! Emitters that emit no photons (the `constant` emitter, see `photon::emit`) have no T1 technique, so
-//! their caustics keep `w₂ = 1` in every estimator.
+//! their caustics keep `w₂ = 1` in every estimator; so do paths whose delta chain is longer than the
+//! photon pass follows ([`crate::photon::photon_chain_reaches`], the one rule both sides ask).
 
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
-use crate::photon::PhotonMap;
+use crate::photon::{photon_chain_reaches, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -55,20 +56,31 @@ pub struct CausticEstimator<'a> {
     map: Option<&'a PhotonMap>,
     knn: usize,
     max_radius: f32,
-    /// Lower bound on ΔA: coincident photons give r → 0 (method.md §3). `π·(10⁻³·r_max)²`.
+    /// Lower bound on ΔA: coincident photons give r → 0 (method.md §3). See [`min_delta_area`].
     min_area: f32,
     /// `s ∈ (0, 1]`: the estimate uses the photons within `r² = s·r²_kNN` and `ΔA = π·s·r²_kNN` (the
     /// progressive schedule of method.md §6; 1 = the plain k-NN estimate).
     area_scale: f32,
 }
 
+/// Lower bound on ΔA (method.md §3): `π·r_floor²` with `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R)`, R the
+/// scene's bounding radius (5·10⁻⁵·R is 10⁻³ of the default `r_max` = 5% of R). It follows the scene's
+/// scale, never only the user's search bound: a clamp of `π(10⁻³·r_max)²` alone made every estimate
+/// of a render with `r_max` = 10⁶ cover 3·10⁶ units², which erased the caustic (issue 13 §2). The
+/// `r_max` term keeps the floor below `π·r_max²`, the largest area an estimate can have.
+#[must_use]
+pub fn min_delta_area(max_radius: f32, scene_radius: f32) -> f32 {
+    let r_floor = (1e-3 * max_radius).min(5e-5 * scene_radius);
+    (std::f32::consts::PI * r_floor * r_floor).max(f32::MIN_POSITIVE)
+}
+
 impl<'a> CausticEstimator<'a> {
     /// `map` is `None` for `pt`, and for `pm`/`mis` when the scene needs no photon pass.
+    /// `scene_radius`: the scene's bounding radius (sets the floor of ΔA, [`min_delta_area`]).
     #[must_use]
-    pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32) -> Self {
+    pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32, scene_radius: f32) -> Self {
         let map = if estimator == Estimator::Pt { None } else { map };
-        let min_area = std::f32::consts::PI * (1e-3 * max_radius).powi(2);
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_area.max(f32::MIN_POSITIVE), area_scale: 1.0 }
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, scene_radius), area_scale: 1.0 }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
@@ -149,11 +161,13 @@ impl<'a> CausticEstimator<'a> {
         Gather { l1: sum / delta_area, delta_area, photons: used }
     }
 
-    /// T2's weight for emission `le_lum` (luminance) reached from `origin` through ≥1 delta vertex.
-    /// `has_photons`: whether the emitter that was reached emits photons (else T1 cannot make the path).
+    /// T2's weight for emission `le_lum` (luminance) reached from `origin` through `delta_vertices` ≥ 1
+    /// delta-sampled vertices. `has_photons`: whether the emitter that was reached emits photons. T1
+    /// cannot make the path when it does not, or when the photon pass cuts a chain that long
+    /// ([`photon_chain_reaches`]): then `w₂ = 1`.
     #[must_use]
-    pub fn t2_weight(&self, origin: &CausticOrigin, le_lum: f32, has_photons: bool) -> f32 {
-        if !has_photons || self.map.is_none() {
+    pub fn t2_weight(&self, origin: &CausticOrigin, le_lum: f32, has_photons: bool, delta_vertices: u32) -> f32 {
+        if !has_photons || self.map.is_none() || !photon_chain_reaches(delta_vertices) {
             return 1.0;
         }
         match self.estimator {
@@ -192,7 +206,7 @@ mod tests {
                 })
                 .collect();
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, 1.0);
-            let est = CausticEstimator::new(Estimator::Pm, Some(&map), k, 1.0).with_area_scale(area_scale);
+            let est = CausticEstimator::new(Estimator::Pm, Some(&map), k, 1.0, 1.0).with_area_scale(area_scale);
             for q in 0..queries {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
@@ -226,7 +240,7 @@ mod tests {
     #[test]
     fn area_scale_outside_the_unit_interval_is_ignored() {
         for s in [0.0, -1.0, 1.5, f32::NAN, f32::INFINITY] {
-            assert_eq!(CausticEstimator::new(Estimator::Pm, None, 8, 1.0).with_area_scale(s).area_scale, 1.0);
+            assert_eq!(CausticEstimator::new(Estimator::Pm, None, 8, 1.0, 1.0).with_area_scale(s).area_scale, 1.0);
         }
     }
 }
