@@ -4,8 +4,10 @@
 //! A *pass* renders `pass_spp` samples for every pixel of the crop window. With a sample budget and no
 //! time limit there is one pass of `spp` samples and one photon map (the paper's configuration: α = spp).
 //! With a time limit, passes run until the time is spent, the last one cut at the limit (its finished
-//! tiles kept), so that renders of different estimators take equal time; each pass traces a fresh photon
-//! map with its own seed (α = `pass_spp`), and the film averages over passes.
+//! tiles kept) so that renders of different estimators take equal time; each pass traces a fresh photon
+//! map of the same budget with its own seed (α = `pass_spp`), the density estimate of pass `p` uses the
+//! fraction [`area_scale_for_pass`] of its k-NN area (the progressive schedule of method.md §6), and the
+//! film averages over passes.
 //!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
@@ -48,9 +50,20 @@ pub struct RenderSettings {
     pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
-    /// Photon budget growth per pass: pass `p` (from 0) uses `photons × photon_growth^p`, so that the
-    /// kernel bias of `pm`/`mis` falls as a progressive render goes on (1 = the same budget every pass).
-    pub photon_growth: f64,
+}
+
+/// Exponent `a` of the progressive area schedule (method.md §6): Knaus & Zwicker's α = 2/3, which
+/// balances the asymptotic rates of the kernel bias and the variance of the average of the passes.
+pub const PROGRESSIVE_AREA_EXPONENT: f64 = 2.0 / 3.0;
+
+/// The fraction of the k-NN area that the density estimate of pass `pass` (from 0) uses:
+/// `s_p = (p + 1)^(a − 1)` with `a` = [`PROGRESSIVE_AREA_EXPONENT`] (method.md §6). `s_0 = 1`, so a
+/// render of one pass is the paper's estimate. The rate is that of Knaus & Zwicker's recursion
+/// `r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1)`, whose product is `Γ(i + a)/(Γ(1 + a)·Γ(i + 1)) ~ i^(a−1)/Γ(1 + a)`; the
+/// closed form depends on the pass index alone, so any subset of passes can be rendered on its own.
+#[must_use]
+pub fn area_scale_for_pass(pass: u32) -> f32 {
+    (f64::from(pass) + 1.0).powf(PROGRESSIVE_AREA_EXPONENT - 1.0) as f32
 }
 
 impl RenderSettings {
@@ -75,7 +88,6 @@ impl RenderSettings {
             },
             knn: caus.knn,
             max_radius: caus.max_radius.unwrap_or_else(|| defaults::max_radius(scene.bounds.bounding_sphere().1)),
-            photon_growth: defaults::PHOTON_GROWTH,
         }
     }
 
@@ -96,17 +108,6 @@ impl RenderSettings {
         match self.time_limit {
             Some(_) => None,
             None => Some(self.spp.div_ceil(self.effective_pass_spp())),
-        }
-    }
-
-    /// The photon budget of pass `pass` (from 0): `photons × photon_growth^pass`, rounded, ≥ 1.
-    #[must_use]
-    pub fn photons_for_pass(&self, pass: u32) -> PhotonBudget {
-        let g = if self.photon_growth.is_finite() && self.photon_growth > 0.0 { self.photon_growth } else { 1.0 };
-        let scale = |n: u64| -> u64 { ((n as f64) * g.powi(pass.min(i32::MAX as u32) as i32)).round().clamp(1.0, f64::from(u32::MAX)) as u64 };
-        match self.photons {
-            PhotonBudget::Emitted(n) => PhotonBudget::Emitted(scale(n)),
-            PhotonBudget::Stored(m) => PhotonBudget::Stored(scale(m)),
         }
     }
 }
@@ -280,7 +281,7 @@ pub fn render_share(
             let stop = || {
                 cancel.load(Ordering::Relaxed) || settings.time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() - spent_before >= limit)
             };
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass), &stop)?;
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass), &stop)?;
             if ps.stopped && (cancel.load(Ordering::Relaxed) || spp_done > 0) {
                 // Interrupted, or out of time after at least one whole pass: this pass is not rendered.
                 stats.seconds_photons += ps.seconds_trace;
@@ -301,7 +302,8 @@ pub fn render_share(
         let tracer = PathTracer {
             scene,
             accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1),
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
+                .with_area_scale(area_scale_for_pass(pass)),
             alpha: this_pass as f32,
         };
         // With a time limit the eye pass stops at the limit, from the second pass on (the first always
@@ -414,4 +416,34 @@ pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings:
     let t = Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;
     Ok(RenderedImage { image: film.image(), stats, seconds: t.elapsed().as_secs_f64() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The schedule of method.md §6: s₀ = 1, strictly decreasing, and the rate of Knaus & Zwicker's
+    /// recursion r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1): the ratio of the two tends to the constant Γ(1 + a).
+    #[test]
+    fn area_schedule_follows_knaus_zwicker() {
+        assert_eq!(area_scale_for_pass(0), 1.0);
+        let a = PROGRESSIVE_AREA_EXPONENT;
+        let mut kz = 1.0f64;
+        let mut previous = 1.0f32;
+        let mut ratios = Vec::new();
+        for p in 1..=100_000u32 {
+            kz *= (f64::from(p) + a) / (f64::from(p) + 1.0);
+            let s = area_scale_for_pass(p);
+            assert!(s < previous && s > 0.0, "pass {p}: {s} after {previous}");
+            previous = s;
+            if p == 1_000 || p == 100_000 {
+                ratios.push(kz / f64::from(s));
+            }
+        }
+        // Γ(1 + 2/3) = 0.9027...; the product uses (i + a)/(i + 1) from i = 1, hence Γ(2)/Γ(1 + a) times
+        // p^(a−1): kz/s → 1/Γ(1 + a) = 1.1078.
+        for r in ratios {
+            assert!((r - 1.1078).abs() < 0.01, "KZ product / closed form = {r}");
+        }
+    }
 }

@@ -94,10 +94,6 @@ pub fn seconds(s: &str) -> Result<f64, String> {
     checked(s, check::positive)
 }
 
-pub fn photon_growth(s: &str) -> Result<f64, String> {
-    checked(s, check::photon_growth)
-}
-
 pub fn exposure(s: &str) -> Result<f32, String> {
     checked(s, check::exposure)
 }

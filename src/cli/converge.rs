@@ -47,9 +47,6 @@ pub struct ConvergeArgs {
     /// Samples per pixel of one pass.
     #[arg(long, default_value_t = defaults::PASS_SPP_TIME_LIMITED, value_parser = args::pass_spp)]
     pub pass_spp: u32,
-    /// Photon budget growth per pass: pass p uses photons × G^p.
-    #[arg(long, default_value_t = defaults::PHOTON_GROWTH_CONVERGE, value_parser = args::photon_growth)]
-    pub photon_growth: f64,
     #[command(flatten)]
     pub photon: PhotonArgs,
     #[command(flatten)]
@@ -81,7 +78,7 @@ struct Summary<'a> {
     height: u32,
     time_budget: f64,
     pass_spp: u32,
-    photon_growth: f64,
+    area_exponent: f64,
     photons: String,
     knn: u32,
     max_radius: f32,
@@ -113,7 +110,6 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
     let mut base = RenderSettings::from_scene(scene);
     base.pass_spp = args.pass_spp;
     base.time_limit = Some(args.time_budget);
-    base.photon_growth = args.photon_growth;
     args.photon.apply(&mut base);
     if let Some(s) = args.run.seed {
         base.seed = s;
@@ -142,7 +138,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
         let mut settings = base.clone();
         settings.estimator = estimator;
         if !args.quiet {
-            eprintln!("converge: {} for {} s ({} spp per pass, photons {} × {}^pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons), args.photon_growth);
+            eprintln!("converge: {} for {} s ({} spp per pass, photons {} per pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
         }
         let t = Instant::now();
         let run = pool.install(|| {
@@ -180,7 +176,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
         height,
         time_budget: args.time_budget,
         pass_spp: args.pass_spp,
-        photon_growth: args.photon_growth,
+        area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         photons: describe_budget(base.photons),
         knn: base.knn,
         max_radius: base.max_radius,

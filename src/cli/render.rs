@@ -61,10 +61,6 @@ pub struct RenderArgs {
     pub estimator: Option<Estimator>,
     #[command(flatten)]
     pub photon: PhotonArgs,
-    /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
-    /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
-    #[arg(long, default_value_t = defaults::PHOTON_GROWTH, value_parser = args::photon_growth)]
-    pub photon_growth: f64,
     /// Write statistics as JSON here.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -116,7 +112,7 @@ pub struct RenderStatsJson {
     pub knn: u32,
     pub max_radius: f32,
     /// What the photon pass aims for: `emitted` (N photons emitted) or `stored` (emit until M caustic
-    /// photons are stored), and the count of the first pass (pass p: × photon_growth^p).
+    /// photons are stored), and its count (the same for every pass).
     pub photon_budget: &'static str,
     pub photon_target: u64,
     pub knn_queries: u64,
@@ -130,7 +126,8 @@ pub struct RenderStatsJson {
     pub partial: bool,
     /// Phases the scene did not need: `{phase: reason}`.
     pub skipped: std::collections::BTreeMap<String, String>,
-    pub photon_growth: f64,
+    /// `a` of the progressive area schedule: pass p's density estimate uses (p+1)^(a−1) of its k-NN area.
+    pub area_exponent: f64,
     /// With --reference: the error after the last pass.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<ErrorJson>,
@@ -325,7 +322,6 @@ fn settings(args: &RenderArgs, scene: &Scene) -> RenderSettings {
         settings.estimator = estimator;
     }
     args.photon.apply(&mut settings);
-    settings.photon_growth = args.photon_growth;
     settings
 }
 
@@ -475,7 +471,7 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
         inf_samples: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
-        photon_growth: settings.photon_growth,
+        area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         error: match (pass_log.last(), &args.reference) {
             (Some(last), Some(r)) => Some(ErrorJson { reference: r.display().to_string(), last: last.clone() }),
             _ => None,

@@ -60,6 +60,11 @@ pub struct PhotonMap {
 }
 
 impl PhotonMap {
+    /// A map over `tree` whose photons came from `emitted` emissions of total power `total_power`.
+    #[must_use]
+    pub fn new(tree: KdTree, emitted: u64, total_power: f32) -> Self {
+        Self { tree, emitted, total_power }
+    }
     #[must_use]
     pub fn tree(&self) -> &KdTree {
         &self.tree

@@ -7,13 +7,10 @@
 //! every pass the film is compared with the reference (the comparison's own time is not counted, see
 //! [`crate::render::PassInfo::seconds`]).
 //!
-//! **Photon growth.** Pass `p` (from 0) traces `photons × G^p` photons (`--photon-growth G`, default
-//! [`crate::scene::settings::defaults::PHOTON_GROWTH_CONVERGE`]). With k fixed, the k-NN radius shrinks like `N^{-1/2}`, so the kernel bias
-//! of pass p falls like `G^{-p}`; the film's average of the passes then has a bias that falls like `1/P`
-//! after P passes, while a constant budget (G = 1) would keep the first pass's bias for ever. The photon
-//! pass's cost grows like `G^p` too, but it is small next to the eye passes at the budgets used here
-//! (the paper's 70,000 photons against 307,200 eye paths per spp); G = 1.1 doubles the photon budget every
-//! ~7 passes.
+//! **Progressive schedule** (method.md §6, the library's [`crate::render::area_scale_for_pass`]): every
+//! pass traces the same photon budget, so the photon pass keeps a fixed share of the time and memory, and
+//! the density estimate of pass `p` uses the fraction `(p+1)^(a−1)` of its k-NN area (a = 2/3): the
+//! kernel bias of the average falls like `P^(a−1)` and its variance like `P^(−a)` after P passes.
 //!
 //! Outputs in DIR (all written atomically): `errors.csv` (one row per pass and estimator), `error.svg/png`
 //! (log-log RMSE against time, one line per estimator) and `error-<region>.svg/png` per region,

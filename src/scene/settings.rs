@@ -32,11 +32,6 @@ pub mod defaults {
     pub const KNN: u32 = 50;
     /// Samples per pixel of one pass of a time-limited render.
     pub const PASS_SPP_TIME_LIMITED: u32 = 4;
-    /// Photon budget growth per pass of `render` (1 = the same budget every pass).
-    pub const PHOTON_GROWTH: f64 = 1.0;
-    /// Photon budget growth per pass of `converge` (see `report::converge`: the kernel bias then falls
-    /// like 1/P after P passes).
-    pub const PHOTON_GROWTH_CONVERGE: f64 = 1.1;
 
     /// Photons emitted per pass when neither `photons` nor `caustic_photons` is given: one per pixel of
     /// the crop window, at least 100,000.
@@ -112,14 +107,6 @@ pub mod check {
     /// The k-NN search radius cap (scene units): positive and finite.
     pub fn max_radius(v: f32) -> Result<(), Invalid> {
         positive(v.into())
-    }
-
-    /// Photon budget growth per pass: finite and ≥ 1 (below 1 the kernel bias would grow pass after pass).
-    pub fn photon_growth(v: f64) -> Result<(), Invalid> {
-        if !(v.is_finite() && v >= 1.0) {
-            return Err(Invalid(format!("must be a finite number ≥ 1, got {v}")));
-        }
-        Ok(())
     }
 
     /// Longest path in segments: -1 (unlimited) or ≥ 0.
