@@ -114,8 +114,10 @@ pub struct RenderStatsJson {
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
-    pub nan_pixels: u64,
-    pub inf_pixels: u64,
+    /// Samples with a NaN channel, and with an infinite one (no NaN): each was counted as a sample of its
+    /// pixel with the value 0 (so the pixel's mean is biased low by its share), and a warning was printed.
+    pub nan_samples: u64,
+    pub inf_samples: u64,
     pub partial: bool,
     /// Phases the scene did not need, each with the reason.
     pub skipped: std::collections::BTreeMap<String, String>,
@@ -173,8 +175,8 @@ fn positive(name: &str, v: f32) -> anyhow::Result<f32> {
 /// Checks the command-line values that need no scene, before anything slow happens: counts that must be
 /// ≥ 1 (`--spp`, `--pass-spp`, `--knn`, `--threads`, `--photons`, `--caustic-photons`, `--width`,
 /// `--height`) are rejected, not clamped; `--max-radius` must be positive and finite; and the directories
-/// of `-o`, `--png` and `--stats` must exist, so that a long render is never lost to a typo in an output
-/// path.
+/// of `-o`, `--png` and `--stats` must exist and accept a new file, so that a long render is never lost to
+/// a typo or a read-only directory in an output path.
 pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
     let counts: [(&str, Option<u64>); 5] = [
         ("--spp", args.spp.map(u64::from)),
@@ -205,8 +207,39 @@ pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
         if path.is_dir() {
             bail!("{flag} {}: is a directory", path.display());
         }
+        check_writable(flag, path, dir)?;
     }
     Ok(())
+}
+
+/// At most this many worker threads, whatever `--threads` asks (more only cost memory and start-up time:
+/// `--threads 100000` spent 100 s creating threads).
+pub const MAX_THREADS: usize = 1024;
+
+/// `--threads` (default: all cores), capped at [`MAX_THREADS`] with a warning.
+pub fn worker_threads(requested: Option<usize>) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match requested {
+        Some(t) if t > MAX_THREADS => {
+            eprintln!("warning: --threads {t}: capped at {MAX_THREADS} (the limit; this machine has {cores} cores)");
+            MAX_THREADS
+        }
+        Some(t) => t,
+        None => cores,
+    }
+}
+
+/// Whether `dir` accepts a new file: one is created and removed (a read-only directory must be found before
+/// the render, not after it).
+fn check_writable(flag: &str, path: &Path, dir: &Path) -> anyhow::Result<()> {
+    let probe = dir.join(format!(".caustica-write-test-{}", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!("{flag} {}: cannot write to directory {}: {e}", path.display(), dir.display()),
+    }
 }
 
 /// Runs `caustica render`.
@@ -241,7 +274,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     args.photon.apply(&mut settings);
     settings.photon_growth = photon_growth(args.photon_growth)?;
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = worker_threads(args.threads);
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
@@ -312,8 +345,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let image = film.image();
     write_exr(&output, &image)?;
+    // A later output that fails does not take the EXR with it: the error says what was written.
+    let written = |list: &[&Path]| list.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ");
     if let Some(png) = &args.png {
-        write_png(png, &image, args.exposure, args.tonemap)?;
+        write_png(png, &image, args.exposure, args.tonemap)
+            .with_context(|| format!("--png {} (written: {})", png.display(), written(&[&output])))?;
+    }
+    let non_finite = film.nan_count() + film.inf_count();
+    if non_finite > 0 {
+        eprintln!(
+            "warning: {} NaN and {} infinite samples (of {}) were counted as zero-valued samples of their pixels, \
+             whose means are biased low by that share (stats keys nan_samples, inf_samples)",
+            film.nan_count(),
+            film.inf_count(),
+            pixels * u64::from(phases.spp),
+        );
     }
     let seconds_total = t_start.elapsed().as_secs_f64();
     let samples = pixels as f64 * f64::from(phases.spp);
@@ -343,8 +389,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         photons_stored: phases.photons_stored,
         photon_bytes: phases.photon_bytes,
         photon_chains_capped: phases.photon_chains_capped,
-        nan_pixels: film.nan_count(),
-        inf_pixels: film.inf_count(),
+        nan_samples: film.nan_count(),
+        inf_samples: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
         photon_growth: settings.photon_growth,
@@ -354,7 +400,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
     };
     if let Some(p) = &args.stats {
-        write_json_atomic(p, &stats)?;
+        let mut done: Vec<&Path> = vec![&output];
+        done.extend(args.png.as_deref());
+        write_json_atomic(p, &stats).with_context(|| format!("--stats {} (written: {})", p.display(), written(&done)))?;
     }
     if !args.quiet {
         eprintln!(
