@@ -307,10 +307,9 @@ fn film_extremes() {
 }
 
 /// A huge `max_radius` must not remove the caustic (issue 13 §2: the ΔA clamp followed the user's search
-/// bound). Depends on that fix (helper `stiff`); measured before it: pm = mis = 0.0430, the image without
-/// the caustic, against pt 0.0581 ± 0.0014.
+/// bound). Measured before that fix: pm = mis = 0.0430, the image without the caustic, against pt
+/// 0.0581 ± 0.0014.
 #[test]
-#[ignore = "fails until issue 13 §2's max_radius ΔA clamp fix lands (pm/mis lose the caustic: 0.0430 vs pt 0.0581)"]
 fn huge_max_radius_keeps_the_caustic() {
     check_against_pt("max-radius-1e6", &Params { max_radius: Some(1e6), ..Params::default() });
 }
