@@ -243,6 +243,17 @@ pub fn spawn_t_min(p_error: Vec3, dir: Vec3) -> f32 {
     }
 }
 
+/// `v / |v|` for any finite non-zero `v`, even where `|v|²` over- or underflows f32 (`v` is first divided
+/// by its largest component); `None` for zero or non-finite `v`.
+#[must_use]
+pub fn normalize_any(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    (v / m).try_normalize()
+}
+
 /// Smallest f32 greater than `v` (∞ stays ∞; −0 is treated as +0).
 #[must_use]
 pub fn next_float_up(v: f32) -> f32 {

@@ -129,6 +129,14 @@ fn broken_files_are_errors_that_name_the_file() {
     ));
     assert!(matches!(load_mesh(&dir.join("empty.obj")), Err(MeshError::NoTriangles { .. })));
     assert!(matches!(load_mesh(&dir.join("mesh.stl")), Err(MeshError::UnsupportedFormat { .. })));
+    // Garbage says what is wrong (issue 13: "read error", "stream did not contain valid UTF-8").
+    let garbage: Vec<u8> = (0..300u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    let garbage_obj = write(&dir, "garbage.obj", &garbage);
+    let msg = load_mesh(&garbage_obj).unwrap_err().to_string();
+    assert!(msg.contains("not a text file"), "{msg}");
+    let garbage_ply = write(&dir, "garbage.ply", &garbage);
+    let msg = load_mesh(&garbage_ply).unwrap_err().to_string();
+    assert!(msg.contains("not a PLY file: it must start with the line `ply`"), "{msg}");
     let missing = dir.join("missing.ply");
     assert!(matches!(load_mesh(&missing), Err(MeshError::Io { .. })));
     std::fs::remove_dir_all(dir).unwrap();

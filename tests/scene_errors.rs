@@ -112,6 +112,18 @@ fn bad_keys_and_types_name_the_key() {
             "zero vector",
         ),
         (shape_with("to_world = { scale = [1, 0, 1] }"), "shape[0].to_world", "singular"),
+        // Overflow is named as such (issue 13: these were "zero scale", "zero vector", "degenerate").
+        (shape_with("to_world = { scale = 1e30 }"), "shape[0].to_world", "scale overflows f32"),
+        (
+            minimal("to_world = { look_at = { origin = [1e38, 0, 0], target = [0, 0, 0], up = [0, 1, 0] } }\n[[shape]]\ntype = \"rectangle\"\n"),
+            "sensor.to_world",
+            "the camera lies 1.0000e38 from the origin",
+        ),
+        (
+            shape_with("to_world = { translate = [1e6, 0, 0] }"),
+            "shape[0]",
+            "f32 coordinates cannot hold it there (limit: 16384 times its size",
+        ),
         (
             shape_with("to_world = { matrix = [1, 0, 0] }"),
             "shape[0].to_world.matrix",
@@ -132,6 +144,22 @@ fn bad_keys_and_types_name_the_key() {
         let msg = error_of(text, key);
         assert!(msg.contains(phrase), "expected {phrase:?} in: {msg}");
     }
+}
+
+/// Values that overflowed f32 in an intermediate step were refused with the wrong reason (issue 13): a
+/// rotation axis of length 1e20 is a valid axis, and an environment map's overflowing `scale` is blamed
+/// on `scale`, not on the file.
+#[test]
+fn large_values_get_the_right_verdict() {
+    let dir = tmp_dir("scene_large");
+    let axis = shape_with("to_world = { rotate = { axis = [0, 1e20, 0], angle = 30 } }");
+    if let Err(e) = Scene::from_toml_str(&axis, &dir, Path::new("bad.toml")) {
+        panic!("{e}");
+    }
+    let env = scenes_dir().join("assets/envmaps/studio.hdr");
+    let text = minimal(&format!("[[shape]]\ntype = \"rectangle\"\n[[emitter]]\ntype = \"envmap\"\nfilename = {:?}\nscale = 1e38\n", env.display().to_string()));
+    let msg = error_of(&text, "emitter[0].scale");
+    assert!(msg.contains("overflows f32") && msg.contains("the scale must stay below"), "{msg}");
 }
 
 #[test]

@@ -8,11 +8,15 @@
 //! - [`brute::BruteForce`]: tests every triangle; the oracle for tests, kept forever.
 //! - [`bvh::Bvh`]: the pure-Rust BVH.
 //! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
+//!
+//! [`build_accel`] wraps the chosen backend in [`rebase::Rebased`], which traces rays that start far from
+//! the scene (reflected by a sky-sized shape) from a point of the same line near it.
 
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod rebase;
 pub mod triangle;
 
 use crate::error::AccelError;
@@ -79,13 +83,15 @@ impl std::str::FromStr for BackendKind {
 /// Builds the chosen backend over a triangle soup. Only the chosen backend is built.
 pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(positions, indices)?;
-    match kind {
-        BackendKind::Bvh => Ok(Box::new(bvh::Bvh::build(positions, indices))),
+    let inner: Box<dyn Accel> = match kind {
+        BackendKind::Bvh => Box::new(bvh::Bvh::build(positions, indices)),
         #[cfg(feature = "embree")]
-        BackendKind::Embree => Ok(Box::new(embree::EmbreeAccel::new(positions, indices)?)),
+        BackendKind::Embree => Box::new(embree::EmbreeAccel::new(positions, indices)?),
         #[cfg(not(feature = "embree"))]
-        BackendKind::Embree => Err(AccelError::EmbreeNotCompiled),
-    }
+        BackendKind::Embree => return Err(AccelError::EmbreeNotCompiled),
+    };
+    // Far rays (reflected by a sky-sized shape) are re-based near the scene: `rebase`.
+    Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
 }
 
 /// The Embree version the build detected (e.g. `"3.13.5"`), or `None` without the `embree` feature.

@@ -122,7 +122,7 @@ impl RunArgs {
     /// `--threads` or every core.
     #[must_use]
     pub fn threads(&self) -> usize {
-        self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
+        worker_threads(self.threads)
     }
 
     /// `--backend` or the default one.
@@ -182,7 +182,38 @@ pub fn check_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
     if path.is_dir() {
         bail!("{flag} {}: is a directory", path.display());
     }
-    Ok(())
+    check_writable(flag, path, dir)
+}
+
+/// Whether `dir` accepts a new file: one is created and removed (a read-only directory must be found before
+/// the render, not after it).
+fn check_writable(flag: &str, path: &std::path::Path, dir: &std::path::Path) -> anyhow::Result<()> {
+    let probe = dir.join(format!(".caustica-write-test-{}", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => anyhow::bail!("{flag} {}: cannot write to directory {}: {e}", path.display(), dir.display()),
+    }
+}
+
+/// At most this many worker threads, whatever `--threads` asks (more only cost memory and start-up time:
+/// `--threads 100000` spent 100 s creating threads).
+pub const MAX_THREADS: usize = 1024;
+
+/// `--threads` (default: all cores), capped at [`MAX_THREADS`] with a warning.
+#[must_use]
+pub fn worker_threads(requested: Option<usize>) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    match requested {
+        Some(t) if t > MAX_THREADS => {
+            eprintln!("warning: --threads {t}: capped at {MAX_THREADS} (the limit; this machine has {cores} cores)");
+            MAX_THREADS
+        }
+        Some(t) => t,
+        None => cores,
+    }
 }
 
 /// Checks that an image output's name ends in the extension of the format written there (`exr` or

@@ -36,7 +36,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<Outcome> {
     if let Some(out) = &args.json {
         args::check_output("--json", out)?;
     }
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get));
+    let threads = args::worker_threads(args.threads);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     let rays = usize::try_from(args.rays).context("--rays is too large")?;
     let report = measure(&pool, &args.inputs, rays, args.backends.as_deref())?;

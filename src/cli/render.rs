@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::bail;
+use anyhow::{bail, Context as _};
 use serde::Serialize;
 
 use super::args::{self, named, PngArgs, RunArgs};
@@ -120,7 +120,8 @@ pub struct RenderStatsJson {
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
-    /// Pixel samples that were NaN or infinite (left out of the image).
+    /// Samples with a NaN channel, and with an infinite one (no NaN): each was counted as a sample of its
+    /// pixel with the value 0 (so the pixel's mean is biased low by its share), and a warning was printed.
     pub nan_samples: u64,
     pub inf_samples: u64,
     pub partial: bool,
@@ -242,19 +243,38 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     if let Some(e) = pass_log.failure.take() {
         return Err(e.context(format!("the image was written to {}", output.display())));
     }
+    // A later output that fails does not take the first with it: the error says what was written.
+    let written = |list: &[&Path]| list.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ");
     if let Some(png) = &args.png {
-        write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
+        write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)
+            .with_context(|| format!("--png {} (written: {})", png.display(), written(&[&output])))?;
     }
+    warn_non_finite(&film, crop_window(&scene).area() * u64::from(phases.spp));
     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
     let mut stats = stats_json(args, scene_path, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
     stats.part = part_json;
     if let Some(p) = &args.stats {
-        write_json_atomic(p, &stats)?;
+        let mut done: Vec<&Path> = vec![&output];
+        done.extend(args.png.as_deref());
+        write_json_atomic(p, &stats).with_context(|| format!("--stats {} (written: {})", p.display(), written(&done)))?;
     }
     if !args.quiet {
         print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     }
     Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
+}
+
+/// Says how many samples were NaN or infinite and what was done with them (`film` module docs).
+fn warn_non_finite(film: &Film, samples: u64) {
+    if film.nan_count() + film.inf_count() > 0 {
+        eprintln!(
+            "warning: {} NaN and {} infinite samples (of {}) were counted as zero-valued samples of their pixels, \
+             whose means are biased low by that share (stats keys nan_samples, inf_samples)",
+            film.nan_count(),
+            film.inf_count(),
+            samples,
+        );
+    }
 }
 
 /// Checks that every output can be written (directories exist, names are files), and that `--part`

@@ -114,6 +114,7 @@ impl EnvMap {
             return Err(invalid(path, format!("scale {scale} must be finite and non-negative")));
         }
         let to_world = rotation_of(path, to_world)?;
+        let max = pixels.iter().fold(0.0f32, |m, p| m.max(p.max_element()));
         for (i, p) in pixels.iter_mut().enumerate() {
             if !p.is_finite() || p.min_element() < 0.0 {
                 let path = path.to_path_buf();
@@ -128,10 +129,14 @@ impl EnvMap {
             }
             *p *= scale;
             if !p.is_finite() {
-                return Err(invalid(
-                    path,
-                    format!("pixel (x {}, y {}) times scale {scale} overflows", i % width, i / width),
-                ));
+                return Err(LightError::ScaleOverflow {
+                    path: path.to_path_buf(),
+                    x: i % width,
+                    y: i / width,
+                    scale,
+                    max,
+                    limit: f32::MAX / max,
+                });
             }
         }
         let weights = sampling_weights(&pixels, width, height);

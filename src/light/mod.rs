@@ -91,6 +91,16 @@ pub enum LightError {
     },
     #[error("{}: {message}", path.display())]
     Invalid { path: PathBuf, message: String },
+    /// A texel times the emitter's `scale` overflows f32: the scale is at fault, not the file.
+    #[error("pixel (x {x}, y {y}) of {} times scale {scale} overflows f32 (largest texel value {max:e}; the scale must stay below {limit:e})", path.display())]
+    ScaleOverflow {
+        path: PathBuf,
+        x: usize,
+        y: usize,
+        scale: f32,
+        max: f32,
+        limit: f32,
+    },
 }
 
 /// One light source.

@@ -37,7 +37,10 @@ pub fn read_obj<R: BufRead>(reader: &mut R, path: &Path) -> Result<TriangleMesh,
     let (models, _materials) =
         tobj::load_obj_buf(reader, &options, |_| Err(tobj::LoadError::OpenFileFailed)).map_err(|e| MeshError::Parse {
             path: path.to_path_buf(),
-            message: format!("OBJ: {e}"),
+            message: match e {
+                tobj::LoadError::ReadError => "OBJ: not a text file (a line is not valid UTF-8) or the read failed".to_string(),
+                e => format!("OBJ: {e}"),
+            },
         })?;
 
     let mut mesh = TriangleMesh::default();

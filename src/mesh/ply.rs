@@ -47,12 +47,20 @@ pub fn load_ply_gz(path: &Path) -> Result<TriangleMesh, MeshError> {
 }
 
 /// Reads PLY data from `reader`; `path` only names the source in errors.
-pub fn read_ply<R: BufRead>(reader: R, path: &Path) -> Result<TriangleMesh, MeshError> {
+pub fn read_ply<R: BufRead>(mut reader: R, path: &Path) -> Result<TriangleMesh, MeshError> {
     // ply-rs-bw's messages span several lines ("...\n\tString: '...'\n\tError: ..."): keep them on one.
     let parse_error = |message: String| MeshError::Parse {
         path: path.to_path_buf(),
         message: format!("PLY: {}", message.trim_end().replace("\n\t", "; ").replace('\n', " ")),
     };
+    // A PLY file starts with the line `ply`; anything else (binary garbage, another format) is named as
+    // such instead of by the header parser's first failure ("stream did not contain valid UTF-8").
+    let start = reader.fill_buf().map_err(|e| parse_error(e.to_string()))?;
+    // (Only the bytes at hand are compared: a decompressing reader may deliver fewer than four at first.)
+    let fits = |magic: &[u8]| start[..start.len().min(magic.len())] == magic[..start.len().min(magic.len())];
+    if !(fits(b"ply\n") || fits(b"ply\r\n")) {
+        return Err(parse_error("not a PLY file: it must start with the line `ply`".into()));
+    }
     let mut reader = Reader::new(reader);
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)

@@ -23,7 +23,7 @@ use super::transform::{invertible_linear_part, to_world_matrix};
 use super::Scene;
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError};
-use crate::light::{AreaLight, EnvMap, Light, LightSet};
+use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
 
@@ -162,8 +162,10 @@ pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Sc
                 to_world,
             } => {
                 if scale > 0.0 {
-                    let env = EnvMap::load(&path, scale, to_world)
-                        .map_err(|e| ctx.asset_error(&join_key(&key, "filename"), &path, e.to_string()))?;
+                    let env = EnvMap::load(&path, scale, to_world).map_err(|e| match e {
+                        LightError::ScaleOverflow { .. } => ctx.key_error(&join_key(&key, "scale"), e.to_string()),
+                        _ => ctx.asset_error(&join_key(&key, "filename"), &path, e.to_string()),
+                    })?;
                     lights.push(Light::Env(env));
                 }
             }
@@ -175,6 +177,7 @@ pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Sc
         }
     }
     let bounds = mesh.bounds();
+    super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
     Ok(Scene {
         path: name.to_path_buf(),
@@ -445,6 +448,7 @@ fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, 
             format!("vertex {i} is not finite after the transform"),
         ));
     }
+    super::precision::check_offset(&mesh).map_err(|m| ctx.key_error(&plan.key, m))?;
     // Winding: keep (p1−p0)×(p2−p0) on the side of the transformed normals (see the module docs).
     if (plan.det < 0.0) != plan.flip {
         for t in &mut mesh.indices {

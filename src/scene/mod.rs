@@ -79,12 +79,15 @@
 //! `face_normals = true`. Normals transform with the inverse transpose, and the winding of mirrored shapes
 //! is swapped so the geometric normal follows the shading normal. Each emitting shape becomes one area
 //! light; emitters with zero radiance, zero area or zero scale are left out.
+//! A shape lying more than 2¹⁴ times its own size from the origin is refused (`precision`: f32 coordinates
+//! cannot hold it there; the error states the limit).
 
 mod build;
 mod desc;
 mod error;
 mod interaction;
 mod material;
+pub mod precision;
 pub mod settings;
 mod spans;
 mod transform;

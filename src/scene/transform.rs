@@ -47,6 +47,12 @@ pub(crate) fn invertible_linear_part(ctx: &ErrorContext, key: &str, m: Mat4) -> 
     let det = linear.determinant();
     // Relative test: the determinant against the product of the column lengths (1 for a rotation).
     let scale = linear.x_axis.length() * linear.y_axis.length() * linear.z_axis.length();
+    if det.is_infinite() || !scale.is_finite() {
+        return Err(ctx.key_error(
+            key,
+            format!("the transform's scale overflows f32 (determinant {det}): its columns are {:e}, {:e} and {:e} long", linear.x_axis.length(), linear.y_axis.length(), linear.z_axis.length()),
+        ));
+    }
     if !det.is_finite() || det == 0.0 || det.abs() <= 1e-12 * scale {
         return Err(ctx.key_error(
             key,
@@ -87,7 +93,7 @@ fn op_matrix(ctx: &ErrorContext, key: &str, op: &TransformOp) -> Result<Mat4, Sc
         let key = join_key(key, "rotate");
         let axis = ctx.finite3(&join_key(&key, "axis"), Vec3::from(r.axis))?;
         let angle = ctx.finite(&join_key(&key, "angle"), r.angle)?;
-        let Some(axis) = axis.try_normalize() else {
+        let Some(axis) = crate::math::normalize_any(axis) else {
             return Err(ctx.key_error(&join_key(&key, "axis"), "the rotation axis is the zero vector"));
         };
         return Ok(Mat4::from_axis_angle(axis, angle.to_radians()));
@@ -133,8 +139,8 @@ fn op_matrix(ctx: &ErrorContext, key: &str, op: &TransformOp) -> Result<Mat4, Sc
 /// world space, origin to `origin`. `None` if degenerate.
 #[must_use]
 pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Option<Mat4> {
-    let dir = (target - origin).try_normalize()?;
-    let left = up.cross(dir).try_normalize()?;
+    let dir = crate::math::normalize_any(target - origin)?;
+    let left = crate::math::normalize_any(crate::math::normalize_any(up)?.cross(dir))?;
     let new_up = dir.cross(left);
     Some(Mat4::from_cols(
         left.extend(0.0),
