@@ -4,7 +4,7 @@
 CARGO ?= cargo
 BIN := target/release/caustica
 
-.PHONY: demo test setup build bench-backends dragon
+.PHONY: demo test test-slurm setup build bench-backends dragon
 
 setup:
 	scripts/setup
@@ -21,6 +21,9 @@ test: setup
 	$(CARGO) test --release
 	$(CARGO) build --release --no-default-features
 	EMBREE4_TARGET_DIR=$(CURDIR)/target scripts/test-embree4
+
+test-slurm: setup
+	scripts/test-slurm
 
 dragon:
 	scripts/fetch-dragon

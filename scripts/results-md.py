@@ -84,12 +84,19 @@ fl_pm = region(paper["pm"]["error"], "floor")["rmse"]
 fl_mis = region(paper["mis"]["error"], "floor")["rmse"]
 w(f"Floor RMSE at this configuration: pm {fl_pm:.4e}, mis {fl_mis:.4e} (mis/pm = {fl_mis / fl_pm:.3f}).\n")
 
+def schedule(c):
+    # converge summaries before docs/method.md §6.1 grew the budget geometrically (photon_growth).
+    if "photon_growth" in c:
+        return f"{c['photons']} × {c['photon_growth']:g}^pass"
+    return f"{c['photons']} (the same every pass; pass p's k-NN area × (p+1)^(a−1), a = {c['area_exponent']:.3g})"
+
+
 names = {"teapot": ("teapot-glossy", "floor"), "cornell": ("cornell-caustics", "caustic")}
 for s, (scene, reg) in names.items():
     c = conv[s]
     w(f"## {2 if s == 'teapot' else 3}. {scene} at equal time\n")
     w(f"`caustica converge scenes/{scene}.toml`: each estimator renders {c['time_budget']:g} s (whole passes of "
-      f"{c['pass_spp']} spp; the last pass may run over), photons per pass {c['photons']} × {c['photon_growth']:g}^pass, "
+      f"{c['pass_spp']} spp; the last pass may run over), photons per pass {schedule(c)}, "
       f"k = {c['knn']}, {c['width']}×{c['height']}. Left to right: the estimators at equal time, then the reference "
       + (f"(only the {reg} region is shown here; the full frames are in build/report/converge-{s}/).\n" if s == "teapot" else
          f"; second picture: the {reg} region.\n"))
@@ -152,10 +159,11 @@ for s, (scene, reg) in names.items():
 w("## Notes\n")
 w("- **Time** is rendering time: photon passes and eye passes. The comparison with the reference after each "
   "pass is excluded (`PassInfo::seconds`), and so is building the acceleration structure.")
-w("- **Photons grow with passes** (`--photon-growth`, default 1.1 in `converge`, 1 in `render`): pass p traces "
-  "photons × G^p, so the k-NN radius shrinks and the kernel bias of later passes falls; the film averages the "
-  "passes, so the bias of the average falls like 1/(number of passes), while with G = 1 it would stay at the first "
-  "pass's. pm and mis are therefore consistent in `converge`, but their early passes' bias fades only slowly.")
+w("- **Progressive schedule**: " + ("these converge runs grew the photon budget geometrically (pass p traced "
+  "photons × G^p), the schedule since replaced by a fixed budget per pass and a shrinking k-NN area (docs/method.md §6.1)."
+  if any("photon_growth" in conv[s] for s in conv) else
+  "every pass traces the same photon budget and pass p's density estimates use (p+1)^(a−1) of their k-NN area "
+  "(docs/method.md §6.1), so the photon pass keeps a fixed share of the time and pm and mis are consistent."))
 w("- With a time limit every pass gets its own photon map and α = the pass's spp in q₁ (method.md §4).")
 w("- pm's and mis's eye passes cost more per sample than pt's: each non-delta eye vertex runs a k = 50 nearest-"
   "neighbour query; their error curves start later for that reason and for the photon pass.")

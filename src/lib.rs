@@ -1,5 +1,7 @@
 //! caustica: an offline path tracer with an MIS-weighted caustic photon map.
 //!
+//! The method is specified in `docs/method.md`; comments cite its sections as `method.md §1` … `§6`.
+//!
 //! Module map (see ARCHITECTURE.md):
 //! - [`math`]: glam re-exports, [`math::Ray`], [`math::Aabb`], [`math::Frame`], the one ray-origin offset rule.
 //! - [`mesh`]: triangle meshes and their loaders (OBJ, PLY, gzipped PLY).

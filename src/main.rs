@@ -28,6 +28,8 @@ enum Command {
     Bench(caustica::bench::BenchArgs),
     /// Render a scene file to EXR (and PNG), with statistics.
     Render(caustica::cmd::render::RenderArgs),
+    /// Add the partial films of `render --part I/N` into the image of the whole render.
+    Merge(caustica::cmd::merge::MergeArgs),
     /// Compare an image with a reference: RMSE, relMSE, block and region errors.
     Compare(caustica::report::compare::CompareArgs),
     /// Error against time of the caustic estimators at equal render time, with plots and images.
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Bench(args) => caustica::bench::run(args),
         Command::Render(args) => caustica::cmd::render::run(args),
+        Command::Merge(args) => caustica::cmd::merge::run(args),
         Command::Compare(args) => caustica::report::compare::run(args),
         Command::Converge(args) => caustica::report::converge::run(args),
     };

@@ -3,17 +3,25 @@
 //!
 //! A *pass* renders `pass_spp` samples for every pixel of the crop window. With a sample budget and no
 //! time limit there is one pass of `spp` samples and one photon map (the paper's configuration: α = spp).
-//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map with its
-//! own seed (α = `pass_spp`), and the film averages over passes.
+//! With a time limit, passes run until the time is spent; each pass traces a fresh photon map of the same
+//! budget with its own seed (α = `pass_spp`), the density estimate of pass `p` uses the fraction
+//! [`area_scale_for_pass`] of its k-NN area (the progressive schedule of method.md §6), and the film
+//! averages over passes.
 //!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
+//!
+//! A process may render a [`Share`] of the passes or of the tiles ([`part`]: `render --part`); skipped
+//! passes still advance the sample index, so every (pass, tile) it renders is the one the whole render
+//! would, and the film's exact sums make the parts add up to the whole bit for bit.
+
+pub mod part;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
@@ -40,9 +48,20 @@ pub struct RenderSettings {
     pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
-    /// Photon budget growth per pass: pass `p` (from 0) uses `photons × photon_growth^p`, so that the
-    /// kernel bias of `pm`/`mis` falls as a progressive render goes on (1 = the same budget every pass).
-    pub photon_growth: f64,
+}
+
+/// Exponent `a` of the progressive area schedule (method.md §6): Knaus & Zwicker's α = 2/3, which
+/// balances the asymptotic rates of the kernel bias and the variance of the average of the passes.
+pub const PROGRESSIVE_AREA_EXPONENT: f64 = 2.0 / 3.0;
+
+/// The fraction of the k-NN area that the density estimate of pass `pass` (from 0) uses:
+/// `s_p = (p + 1)^(a − 1)` with `a` = [`PROGRESSIVE_AREA_EXPONENT`] (method.md §6). `s_0 = 1`, so a
+/// render of one pass is the paper's estimate. The rate is that of Knaus & Zwicker's recursion
+/// `r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1)`, whose product is `Γ(i + a)/(Γ(1 + a)·Γ(i + 1)) ~ i^(a−1)/Γ(1 + a)`; the
+/// closed form depends on the pass index alone, so any subset of passes can be rendered on its own.
+#[must_use]
+pub fn area_scale_for_pass(pass: u32) -> f32 {
+    (f64::from(pass) + 1.0).powf(PROGRESSIVE_AREA_EXPONENT - 1.0) as f32
 }
 
 /// Default photon count for an image: one per pixel of the crop window, at least 100,000.
@@ -80,18 +99,26 @@ impl RenderSettings {
             },
             knn: caus.knn.max(1),
             max_radius: caus.max_radius.unwrap_or_else(|| default_max_radius(scene)),
-            photon_growth: 1.0,
         }
     }
 
-    /// The photon budget of pass `pass` (from 0): `photons × photon_growth^pass`, rounded, ≥ 1.
+    /// Samples per pixel of a full pass: `pass_spp`, at least 1 and (without a time limit) at most `spp`.
     #[must_use]
-    pub fn photons_for_pass(&self, pass: u32) -> PhotonBudget {
-        let g = if self.photon_growth.is_finite() && self.photon_growth > 0.0 { self.photon_growth } else { 1.0 };
-        let scale = |n: u64| -> u64 { ((n as f64) * g.powi(pass.min(i32::MAX as u32) as i32)).round().clamp(1.0, f64::from(u32::MAX)) as u64 };
-        match self.photons {
-            PhotonBudget::Emitted(n) => PhotonBudget::Emitted(scale(n)),
-            PhotonBudget::Stored(m) => PhotonBudget::Stored(scale(m)),
+    pub fn effective_pass_spp(&self) -> u32 {
+        if self.time_limit.is_some() {
+            self.pass_spp.max(1)
+        } else {
+            self.pass_spp.clamp(1, self.spp.max(1))
+        }
+    }
+
+    /// The number of passes of a render with a fixed sample count, ⌈spp / pass spp⌉ (the last pass takes
+    /// the remainder); `None` with a time limit, where it depends on the time.
+    #[must_use]
+    pub fn pass_count(&self) -> Option<u32> {
+        match self.time_limit {
+            Some(_) => None,
+            None => Some(self.spp.div_ceil(self.effective_pass_spp())),
         }
     }
 }
@@ -106,7 +133,7 @@ pub enum RenderError {
 }
 
 /// Why the photon pass (or another phase) did not run.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SkippedPhase {
     pub phase: String,
     pub reason: String,
@@ -125,7 +152,8 @@ pub struct PassInfo {
 }
 
 /// Statistics of a render's phases (method.md §5).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RenderPhaseStats {
     pub spp: u32,
     pub passes: u32,
@@ -138,8 +166,40 @@ pub struct RenderPhaseStats {
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
+    /// Passes this process rendered (fewer than `passes` when it rendered a share of the passes).
+    pub passes_rendered: u32,
     pub partial: bool,
     pub skipped: Vec<SkippedPhase>,
+}
+
+/// Which passes and tiles one process renders: all of them, or one part's share (see [`part`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Share {
+    All,
+    /// The passes `p` with `p mod count == index`, every tile.
+    Passes { index: u32, count: u32 },
+    /// Every pass, the tiles `t` (scan order of [`Film::tiles`]) with `t mod count == index`.
+    Tiles { index: u32, count: u32 },
+}
+
+impl Share {
+    /// Whether pass `pass` (from 0) is rendered.
+    #[must_use]
+    pub fn takes_pass(&self, pass: u32) -> bool {
+        match *self {
+            Share::Passes { index, count } => pass % count.max(1) == index,
+            _ => true,
+        }
+    }
+
+    /// Whether tile `tile` (index in scan order) is rendered.
+    #[must_use]
+    pub fn takes_tile(&self, tile: usize) -> bool {
+        match *self {
+            Share::Tiles { index, count } => tile % count.max(1) as usize == index as usize,
+            _ => true,
+        }
+    }
 }
 
 /// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
@@ -157,7 +217,9 @@ pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), Str
     Ok(())
 }
 
-/// Renders `scene` into `film`. `cancel` is polled per tile (Ctrl-C); `on_pass` sees the film after
+/// Renders `scene` into `film`. `cancel` is polled per tile and every few photons of a photon pass
+/// (Ctrl-C; an interrupted photon pass ends the render, marked partial); the time limit also stops a
+/// photon pass (the first pass then renders with the photons traced so far); `on_pass` sees the film after
 /// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
 ///
 /// Time spent inside `on_pass` (error evaluation, logs) is not rendering: it is left out of
@@ -167,6 +229,21 @@ pub fn render(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &RenderSettings,
+    film: &mut Film,
+    cancel: &AtomicBool,
+    on_pass: impl FnMut(&Film, &PassInfo),
+    on_tile: &(dyn Fn(u64) + Sync),
+) -> Result<RenderPhaseStats, RenderError> {
+    render_share(scene, accel, settings, Share::All, film, cancel, on_pass, on_tile)
+}
+
+/// [`render`] of the passes and tiles `share` takes (`on_pass` is called after each pass rendered).
+#[allow(clippy::too_many_arguments)]
+pub fn render_share(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    share: Share,
     film: &mut Film,
     cancel: &AtomicBool,
     mut on_pass: impl FnMut(&Film, &PassInfo),
@@ -181,8 +258,8 @@ pub fn render(
     if !scene.lights.has_env() {
         stats.skipped.push(SkippedPhase { phase: "environment importance sampling".into(), reason: "no environment map in the scene".into() });
     }
-    let pass_spp = if settings.time_limit.is_some() { settings.pass_spp.max(1) } else { settings.pass_spp.clamp(1, settings.spp.max(1)) };
-    let tiles = film.tiles(TILE_SIZE);
+    let pass_spp = settings.effective_pass_spp();
+    let tiles: Vec<_> = film.tiles(TILE_SIZE).into_iter().enumerate().filter(|(t, _)| share.takes_tile(*t)).map(|(_, tile)| tile).collect();
     let width = u64::from(film.width());
     let mut spp_done: u32 = 0;
     let mut pass: u32 = 0;
@@ -195,10 +272,28 @@ pub fn render(
         if this_pass == 0 || cancel.load(Ordering::Relaxed) {
             break;
         }
+        if !share.takes_pass(pass) {
+            spp_done += this_pass;
+            pass += 1;
+            continue;
+        }
         // Photon pass for this render pass.
         let mut map: Option<PhotonMap> = None;
         if photons_needed.is_ok() {
-            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons_for_pass(pass), settings.seed, u64::from(pass))?;
+            // Ctrl-C and the time limit stop the photon pass too (polled every few photons).
+            let spent_before = callback_seconds;
+            let stop = || {
+                cancel.load(Ordering::Relaxed) || settings.time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() - spent_before >= limit)
+            };
+            let (m, ps): (PhotonMap, PhotonPassStats) = trace_photons(scene, accel, settings.photons, settings.seed, u64::from(pass), &stop)?;
+            if ps.stopped && (cancel.load(Ordering::Relaxed) || spp_done > 0) {
+                // Interrupted, or out of time after at least one whole pass: this pass is not rendered.
+                stats.seconds_photons += ps.seconds_trace;
+                stats.partial |= cancel.load(Ordering::Relaxed);
+                break;
+            }
+            // Out of time in the first photon pass: the photons traced so far (N = their number) serve
+            // the one eye pass, so that a time-limited render always has an image.
             stats.seconds_photons += ps.seconds_trace;
             stats.seconds_kdtree += ps.seconds_kdtree;
             stats.photons_emitted += ps.emitted;
@@ -206,12 +301,13 @@ pub fn render(
             stats.photon_bytes = stats.photon_bytes.max(ps.bytes);
             stats.photon_chains_capped += ps.chains_capped;
             stats.rays_traced += ps.rays;
-            map = Some(m);
+            map = (ps.emitted > 0).then_some(m);
         }
         let tracer = PathTracer {
             scene,
             accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius),
+            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
+                .with_area_scale(area_scale_for_pass(pass)),
             alpha: this_pass as f32,
         };
         let t_pass = Instant::now();
@@ -256,6 +352,7 @@ pub fn render(
         stats.seconds_render += t_pass.elapsed().as_secs_f64();
         spp_done += this_pass;
         pass += 1;
+        stats.passes_rendered += 1;
         let info = PassInfo {
             pass,
             seconds: start.elapsed().as_secs_f64() - callback_seconds,
@@ -311,4 +408,34 @@ pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings:
     let t = Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;
     Ok(RenderedImage { image: film.image(), stats, seconds: t.elapsed().as_secs_f64() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The schedule of method.md §6: s₀ = 1, strictly decreasing, and the rate of Knaus & Zwicker's
+    /// recursion r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1): the ratio of the two tends to the constant Γ(1 + a).
+    #[test]
+    fn area_schedule_follows_knaus_zwicker() {
+        assert_eq!(area_scale_for_pass(0), 1.0);
+        let a = PROGRESSIVE_AREA_EXPONENT;
+        let mut kz = 1.0f64;
+        let mut previous = 1.0f32;
+        let mut ratios = Vec::new();
+        for p in 1..=100_000u32 {
+            kz *= (f64::from(p) + a) / (f64::from(p) + 1.0);
+            let s = area_scale_for_pass(p);
+            assert!(s < previous && s > 0.0, "pass {p}: {s} after {previous}");
+            previous = s;
+            if p == 1_000 || p == 100_000 {
+                ratios.push(kz / f64::from(s));
+            }
+        }
+        // Γ(1 + 2/3) = 0.9027...; the product uses (i + a)/(i + 1) from i = 1, hence Γ(2)/Γ(1 + a) times
+        // p^(a−1): kz/s → 1/Γ(1 + a) = 1.1078.
+        for r in ratios {
+            assert!((r - 1.1078).abs() < 0.01, "KZ product / closed form = {r}");
+        }
+    }
 }

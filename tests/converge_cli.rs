@@ -135,7 +135,7 @@ fn render_error_log_has_one_row_per_pass() {
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let (header, rows) = read_csv(&log);
-    assert_eq!(header, ["pass", "seconds", "spp", "photons_emitted", "photons_stored", "rmse", "relmse", "caustic_rmse", "caustic_relmse"]);
+    assert_eq!(header, ["pass", "seconds", "spp", "photons_emitted", "photons_stored", "rmse", "relmse", "caustic_rmse", "caustic_relmse", "caustic_bias"]);
     assert_eq!(rows.len(), 3, "6 spp in passes of 2");
     for (i, row) in rows.iter().enumerate() {
         assert_eq!(row[0], (i + 1).to_string());

@@ -123,6 +123,28 @@ fn planar_and_clustered_points_match_brute_force() {
 }
 
 #[test]
+fn sparse_clusters_and_empty_space_match_brute_force() {
+    // Tight clusters far apart: most queries between them find nothing (the occupancy-grid reject), and
+    // queries exactly one radius away from a photon along an axis must still find it (inclusive radius).
+    let mut s = Sampler::for_key(5, 0, 0);
+    let centres: Vec<Vec3> = (0..8).map(|_| 10.0 * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d())).collect();
+    let photons: Vec<Photon> = (0..800)
+        .map(|i| photon_at(centres[i % 8] + 1e-2 * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), &mut s))
+        .collect();
+    compare_on(&photons, 15, 200);
+    let tree = KdTree::build(photons.clone()).unwrap();
+    let mut out = KnnResult::default();
+    let all = |_: &Photon| true;
+    for (i, ph) in photons.iter().enumerate().step_by(37) {
+        for r in [1e-3f32, 0.1, 0.37, 2.0] {
+            let mut offset = Vec3::ZERO;
+            offset[i % 3] = if i % 2 == 0 { r } else { -r };
+            check(&tree, &photons, ph.position() + offset, 5, r, &all, &mut out);
+        }
+    }
+}
+
+#[test]
 fn duplicates_and_ties_match_brute_force() {
     // Positions on a coarse integer grid: many exact duplicates and many equal distances.
     let mut s = Sampler::for_key(3, 0, 0);

@@ -1,11 +1,11 @@
 //! Surface scattering: a closed enum of BSDFs, evaluated and sampled in the local shading frame
 //! (normal = +z, `crate::math::Frame`). All directions point away from the surface.
 //!
-//! Conventions (SmallVCM-style names; CONTRACTS.md):
+//! Conventions (SmallVCM-style names; the MIS weights that rely on them: docs/method.md §4):
 //! - `f(wo, wi)` is the BSDF value **without** the cosine and covers non-delta lobes only.
 //! - `pdf_w(wo, wi)` is the solid-angle density with which [`Bsdf::sample`] produces `wi` through its
 //!   non-delta lobes — for a blend the mixture over its components, exactly as sampled. `sample` computes the
-//!   pdf it reports by calling `pdf_w` (one code path per pdf, architecture.md habit 5), so MIS weights
+//!   pdf it reports by calling `pdf_w` (one code path per pdf), so MIS weights
 //!   computed from either side agree bit for bit.
 //! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
 //!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
@@ -44,7 +44,7 @@ pub use dielectric::fresnel_dielectric;
 
 use crate::math::{Vec2, Vec3};
 
-/// A BSDF (CONTRACTS.md). Parameters are validated by the scene loader; the evaluation routines stay
+/// A BSDF (conventions: the module documentation above). Parameters are validated by the scene loader; the evaluation routines stay
 /// NaN-free for any finite parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Bsdf {

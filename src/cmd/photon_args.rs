@@ -9,7 +9,7 @@ use crate::render::RenderSettings;
 /// `--photons | --caustic-photons`, `--knn`, `--max-radius`.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct PhotonArgs {
-    /// Photons emitted per photon pass (N of the method; with --photon-growth G, pass p emits N·G^p).
+    /// Photons emitted per photon pass (N of the method; every pass of a progressive render emits N).
     #[arg(long, conflicts_with = "caustic_photons")]
     pub photons: Option<u64>,
     /// Instead of --photons: emit until this many caustic photons are stored (N = all emitted).

@@ -13,7 +13,8 @@ use serde::Serialize;
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::{write_exr, write_png, Film, Rect, Tonemap};
 use crate::cmd::photon_args::PhotonArgs;
-use crate::render::{render, RenderSettings};
+use crate::render::part::{self, Part, PartInfo};
+use crate::render::{render_share, RenderSettings, Share, TILE_SIZE};
 use crate::report::error_log::{ErrorTracker, PassError};
 use crate::scene::{Estimator, Scene};
 
@@ -62,10 +63,6 @@ pub struct RenderArgs {
     pub estimator: Option<Estimator>,
     #[command(flatten)]
     pub photon: PhotonArgs,
-    /// Photon budget growth per pass (time-limited renders): pass p (from 0) uses photons × G^p, so the
-    /// density estimate's kernel bias falls as passes accumulate. 1 = the same budget every pass.
-    #[arg(long, default_value_t = 1.0)]
-    pub photon_growth: f64,
     /// Write statistics as JSON here.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -81,10 +78,15 @@ pub struct RenderArgs {
     /// `62%`, exclusive ends). Repeatable.
     #[arg(long = "region", requires = "reference")]
     pub regions: Vec<String>,
+    /// Render only part I (0-based) of N of the image (a share of its passes, or of its tiles when it has
+    /// fewer passes than N) into a partial film at -o, for `caustica merge`. Needs a fixed sample count.
+    #[arg(long, value_name = "I/N", value_parser = |s: &str| s.parse::<Part>())]
+    pub part: Option<Part>,
     /// No progress bar.
     #[arg(long, short = 'q')]
     pub quiet: bool,
 }
+
 
 /// The statistics JSON of a render (`--stats`).
 #[derive(Debug, Serialize)]
@@ -119,10 +121,24 @@ pub struct RenderStatsJson {
     pub partial: bool,
     /// Phases the scene did not need, each with the reason.
     pub skipped: std::collections::BTreeMap<String, String>,
-    pub photon_growth: f64,
+    /// `a` of the progressive area schedule: pass p's density estimate uses (p+1)^(a−1) of its k-NN area.
+    pub area_exponent: f64,
     /// With --reference: the error after the last pass.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<ErrorJson>,
+    /// With --part: which part, its share and the render's fingerprint.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part: Option<PartJson>,
+}
+
+/// The `part` key of the stats JSON.
+#[derive(Debug, Serialize)]
+pub struct PartJson {
+    pub index: u32,
+    pub count: u32,
+    pub share: &'static str,
+    pub fingerprint: String,
+    pub passes_rendered: u32,
 }
 
 /// The `error` key of the stats JSON: the reference and the last pass's figures.
@@ -154,14 +170,6 @@ fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
     Ok([v[0], v[1], v[2], v[3]])
 }
 
-/// Checks `--photon-growth`: finite and ≥ 1 (below 1 the kernel bias would grow pass after pass).
-pub fn photon_growth(v: f64) -> anyhow::Result<f64> {
-    if !(v.is_finite() && v >= 1.0) {
-        bail!("--photon-growth must be a finite number ≥ 1, got {v}");
-    }
-    Ok(v)
-}
-
 /// Checks a user-given positive finite number.
 fn positive(name: &str, v: f32) -> anyhow::Result<f32> {
     if !(v.is_finite() && v > 0.0) {
@@ -189,8 +197,20 @@ pub fn validate_args(args: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     args.photon.validate()?;
-    let outputs = [("-o/--output", args.output.as_deref()), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())];
-    for (flag, path) in outputs {
+    if args.part.is_some() {
+        if args.reference.is_some() {
+            bail!("--part renders a share of the image: compare the merged image instead of using --reference");
+        }
+        if args.time_limit.is_some() {
+            bail!("--part: {}", part::PartError::TimeLimited);
+        }
+    }
+    check_outputs(&[("-o/--output", args.output.as_deref()), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())])
+}
+
+/// Checks that each output path names a file in an existing directory (before anything slow happens).
+pub fn check_outputs(outputs: &[(&str, Option<&Path>)]) -> anyhow::Result<()> {
+    for &(flag, path) in outputs {
         let Some(path) = path else { continue };
         if path.file_name().is_none() {
             bail!("{flag} {}: not a file name", path.display());
@@ -240,12 +260,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         settings.estimator = estimator;
     }
     args.photon.apply(&mut settings);
-    settings.photon_growth = photon_growth(args.photon_growth)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let backend = args.backend.unwrap_or_else(BackendKind::default_available);
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
-        PathBuf::from(format!("{stem}.exr"))
+        match args.part {
+            Some(p) => PathBuf::from(format!("{stem}.part-{}-of-{}.exr", p.index, p.count)),
+            None => PathBuf::from(format!("{stem}.exr")),
+        }
     });
 
     // The reference is read and checked before anything is rendered.
@@ -276,11 +298,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let show_progress = !args.quiet && std::io::stdout().is_terminal();
     let progress = crate::cmd::progress::Progress::new(show_progress, &settings, pixels);
     let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
+    let share = match args.part {
+        Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
+        None => Share::All,
+    };
+    let fingerprint = args.part.map(|p| part::fingerprint(&scene, &settings, backend, p.count));
     let phases = pool.install(|| {
-        render(
+        render_share(
             &scene,
             accel.as_ref(),
             &settings,
+            share,
             &mut film,
             &cancel,
             |film, info| {
@@ -311,7 +339,30 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     progress.finish();
 
     let image = film.image();
-    write_exr(&output, &image)?;
+    let part_json = match (args.part, fingerprint) {
+        (Some(p), Some(fingerprint)) => {
+            if phases.partial {
+                bail!("interrupted: part {p} was not written (an incomplete part cannot be merged); run it again");
+            }
+            let info = PartInfo {
+                part: p,
+                fingerprint: fingerprint.clone(),
+                share: PartInfo::share_name(share).to_string(),
+                passes: settings.pass_count().unwrap_or(0),
+                tiles: film.tiles(TILE_SIZE).len() as u32,
+                spp: settings.spp,
+                scene: args.scene.display().to_string(),
+                seconds_total: t_start.elapsed().as_secs_f64(),
+                phases: phases.clone(),
+            };
+            part::write_part(&output, &film, &info)?;
+            Some(PartJson { index: p.index, count: p.count, share: PartInfo::share_name(share), fingerprint, passes_rendered: phases.passes_rendered })
+        }
+        _ => {
+            write_exr(&output, &image)?;
+            None
+        }
+    };
     if let Some(png) = &args.png {
         write_png(png, &image, args.exposure, args.tonemap)?;
     }
@@ -347,11 +398,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         inf_pixels: film.inf_count(),
         partial: phases.partial,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
-        photon_growth: settings.photon_growth,
+        area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         error: match (&tracker, &args.reference) {
             (Some(t), Some(r)) => t.rows().last().map(|last| ErrorJson { reference: r.display().to_string(), last: last.clone() }),
             _ => None,
         },
+        part: part_json,
     };
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats)?;

@@ -1,12 +1,16 @@
 //! The film: where the renderer accumulates samples, and the images it writes.
 //!
-//! - [`Film`] keeps, for every pixel of its crop window, the f64 sum of the RGB samples, the f64 sum of
-//!   their squared luminance (for the per-pixel variance) and the number of samples.
+//! - [`Film`] keeps, for every pixel of its crop window, the **exact** sum of the RGB samples
+//!   ([`exact::ExactSum`]), the f64 sum of their squared luminance (for the per-pixel variance) and the
+//!   number of samples.
 //! - Parallel rendering: split the crop window with [`Film::tiles`], let each worker fill a [`TileBuffer`]
-//!   for its tile, then [`Film::merge_tile`]. Tiles of one [`Film::tiles`] call are disjoint, so each pixel
-//!   receives exactly one f64 addition per round of tiles and the result does not depend on the order in
-//!   which workers finish. (Merging *several* buffers of the same tile is order-dependent in the last bit,
-//!   as f64 addition is not associative: merge those in a fixed order, e.g. pass by pass.)
+//!   for its tile (f64 sums, samples added in the order the worker takes them), then [`Film::merge_tile`].
+//!   A tile buffer's f64 sums are added to the film's RGB sums exactly, so the image does not depend on
+//!   the order in which tile buffers are merged, nor on how they are grouped: a render's passes and tiles
+//!   can be rendered by separate processes and their films added ([`Film::add_film`], `render::part`)
+//!   into the bits one process makes, provided each (pass, tile) buffer is filled the same way.
+//!   The luminance² sums are plain f64 additions: the variance may differ in the last bit between
+//!   groupings (it is a statistic, not part of the image).
 //! - Non-finite samples (NaN or ±∞ in any channel) are **not** accumulated: they are counted
 //!   ([`Film::nan_count`], [`Film::inf_count`]) and still count as a sample of their pixel, i.e. they act
 //!   as a zero-valued sample, so every pixel keeps the same sample count and its mean stays comparable.
@@ -14,9 +18,12 @@
 //!
 //! Box pixel filter: a sample contributes only to the pixel it was taken in.
 
+pub mod exact;
 mod image;
 pub mod io;
+pub mod partial;
 
+pub use self::exact::ExactSum;
 pub use self::image::{luminance, luminance_f64, Image, LUMINANCE_WEIGHTS};
 pub use io::{read_exr, write_exr, write_png, ImageError, Tonemap};
 
@@ -99,15 +106,12 @@ pub enum FilmError {
     },
 }
 
-/// Accumulated samples of one pixel.
+/// Samples of one pixel in a [`TileBuffer`]: plain f64 sums in the order the samples were added.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PixelSum {
-    /// Σ rgb over the finite samples.
-    pub rgb: [f64; 3],
-    /// Σ Y² (Y = luminance) over the finite samples. Σ Y itself is `luminance_f64(rgb)` by linearity.
-    pub lum_sq: f64,
-    /// Number of samples taken in this pixel, including non-finite ones (which add nothing to the sums).
-    pub count: u64,
+struct SampleSum {
+    rgb: [f64; 3],
+    lum_sq: f64,
+    count: u64,
 }
 
 /// What happened to one added sample.
@@ -118,32 +122,88 @@ enum SampleKind {
     Inf,
 }
 
+/// Sorts a sample: counted in any case, its finite channels as f64 and its luminance, or its kind.
+#[inline]
+fn finite_sample(rgb: Vec3) -> Result<[f64; 3], SampleKind> {
+    if rgb.is_nan() {
+        return Err(SampleKind::Nan);
+    }
+    if !rgb.is_finite() {
+        return Err(SampleKind::Inf);
+    }
+    Ok([f64::from(rgb.x), f64::from(rgb.y), f64::from(rgb.z)])
+}
+
+impl SampleSum {
+    #[inline]
+    fn add(&mut self, rgb: Vec3) -> SampleKind {
+        self.count += 1;
+        match finite_sample(rgb) {
+            Ok(c) => {
+                self.rgb[0] += c[0];
+                self.rgb[1] += c[1];
+                self.rgb[2] += c[2];
+                let y = luminance_f64(c);
+                self.lum_sq += y * y;
+                SampleKind::Finite
+            }
+            Err(kind) => kind,
+        }
+    }
+}
+
+/// Accumulated samples of one pixel of the film.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSum {
+    /// Σ rgb over the finite samples, exact.
+    pub rgb: [ExactSum; 3],
+    /// Σ Y² (Y = luminance) over the finite samples. Σ Y itself is `luminance_f64(rgb)` by linearity.
+    pub lum_sq: f64,
+    /// Number of samples taken in this pixel, including non-finite ones (which add nothing to the sums).
+    pub count: u64,
+}
+
 impl PixelSum {
     #[inline]
     fn add(&mut self, rgb: Vec3) -> SampleKind {
         self.count += 1;
-        if rgb.is_nan() {
-            return SampleKind::Nan;
+        match finite_sample(rgb) {
+            Ok(c) => {
+                for (s, v) in self.rgb.iter_mut().zip(c) {
+                    s.add_f64(v);
+                }
+                let y = luminance_f64(c);
+                self.lum_sq += y * y;
+                SampleKind::Finite
+            }
+            Err(kind) => kind,
         }
-        if !rgb.is_finite() {
-            return SampleKind::Inf;
-        }
-        let c = [f64::from(rgb.x), f64::from(rgb.y), f64::from(rgb.z)];
-        self.rgb[0] += c[0];
-        self.rgb[1] += c[1];
-        self.rgb[2] += c[2];
-        let y = luminance_f64(c);
-        self.lum_sq += y * y;
-        SampleKind::Finite
     }
 
+    /// Adds a tile buffer's sums (RGB exactly).
     #[inline]
-    fn merge(&mut self, o: &PixelSum) {
-        self.rgb[0] += o.rgb[0];
-        self.rgb[1] += o.rgb[1];
-        self.rgb[2] += o.rgb[2];
+    fn add_samples(&mut self, o: &SampleSum) {
+        for (s, v) in self.rgb.iter_mut().zip(o.rgb) {
+            s.add_f64(v);
+        }
         self.lum_sq += o.lum_sq;
         self.count += o.count;
+    }
+
+    /// Adds another pixel's sums (RGB exactly).
+    #[inline]
+    pub fn merge(&mut self, o: &PixelSum) {
+        for (s, v) in self.rgb.iter_mut().zip(&o.rgb) {
+            s.add(v);
+        }
+        self.lum_sq += o.lum_sq;
+        self.count += o.count;
+    }
+
+    /// Σ rgb rounded to f64.
+    #[must_use]
+    pub fn rgb_f64(&self) -> [f64; 3] {
+        [self.rgb[0].to_f64(), self.rgb[1].to_f64(), self.rgb[2].to_f64()]
     }
 
     /// Mean RGB (zero for a pixel without samples).
@@ -153,7 +213,8 @@ impl PixelSum {
             return [0.0; 3];
         }
         let n = self.count as f64;
-        [self.rgb[0] / n, self.rgb[1] / n, self.rgb[2] / n]
+        let s = self.rgb_f64();
+        [s[0] / n, s[1] / n, s[2] / n]
     }
 
     /// Unbiased sample variance of the luminance of this pixel's samples,
@@ -164,7 +225,7 @@ impl PixelSum {
             return None;
         }
         let n = self.count as f64;
-        let sum_y = luminance_f64(self.rgb);
+        let sum_y = luminance_f64(self.rgb_f64());
         Some(((self.lum_sq - sum_y * sum_y / n) / (n - 1.0)).max(0.0))
     }
 }
@@ -191,7 +252,7 @@ impl NonFinite {
 #[derive(Clone, Debug)]
 pub struct TileBuffer {
     tile: Tile,
-    pixels: Vec<PixelSum>,
+    pixels: Vec<SampleSum>,
     non_finite: NonFinite,
 }
 
@@ -201,7 +262,7 @@ impl TileBuffer {
     pub fn new(tile: Tile) -> Self {
         Self {
             tile,
-            pixels: vec![PixelSum::default(); tile.area() as usize],
+            pixels: vec![SampleSum::default(); tile.area() as usize],
             non_finite: NonFinite::default(),
         }
     }
@@ -210,7 +271,7 @@ impl TileBuffer {
     pub fn reset(&mut self, tile: Tile) {
         self.tile = tile;
         self.pixels.clear();
-        self.pixels.resize(tile.area() as usize, PixelSum::default());
+        self.pixels.resize(tile.area() as usize, SampleSum::default());
         self.non_finite = NonFinite::default();
     }
 
@@ -334,7 +395,7 @@ impl Film {
             let dst = &mut self.pixels[start..start + tw];
             let src = &buffer.pixels[row * tw..(row + 1) * tw];
             for (d, s) in dst.iter_mut().zip(src) {
-                d.merge(s);
+                d.add_samples(s);
             }
         }
         self.non_finite.nan += buffer.non_finite.nan;
@@ -384,6 +445,25 @@ impl Film {
             let m = self.pixels[y as usize * w as usize + x as usize].mean();
             Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
         })
+    }
+
+    /// Every pixel's sums, row-major over the crop window (pixel `(crop.x0, crop.y0)` first).
+    #[must_use]
+    pub fn sums(&self) -> &[PixelSum] {
+        &self.pixels
+    }
+
+    /// A film made of stored sums (the inverse of [`Film::sums`] with [`Film::nan_count`] and
+    /// [`Film::inf_count`]), for reading films back from files. Errors if `crop` is not a valid crop window
+    /// of a `width × height` film; `None` if `sums` does not have one entry per pixel of the crop.
+    pub fn from_sums(width: u32, height: u32, crop: Rect, sums: Vec<PixelSum>, nan: u64, inf: u64) -> Result<Option<Self>, FilmError> {
+        let mut film = Self::with_crop(width, height, crop)?;
+        if sums.len() != film.pixels.len() {
+            return Ok(None);
+        }
+        film.pixels = sums;
+        film.non_finite = NonFinite { nan, inf };
+        Ok(Some(film))
     }
 
     /// Number of NaN samples added so far (not accumulated).

@@ -64,13 +64,14 @@ impl<'a> PathTracer<'a> {
     /// - after a non-delta vertex: power heuristic between the BSDF pdf and NEE's `light_pdf_w`;
     /// - after a delta vertex with no non-delta vertex before (E S⁺ L, e.g. a light in a mirror): 1;
     /// - after `x S⁺` with `x` non-delta: the caustic weight `w₂` (method.md §4).
-    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, le: Vec3, has_photons: bool) -> f32 {
+    /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length).
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, le: Vec3, has_photons: bool, delta_vertices: u32) -> f32 {
         match prev {
             Vertex::Camera => 1.0,
             Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
             Vertex::Delta => match caustic {
                 None => 1.0,
-                Some(origin) => self.caustics.t2_weight(origin, luminance(le), has_photons),
+                Some(origin) => self.caustics.t2_weight(origin, luminance(le), has_photons, delta_vertices),
             },
         }
     }
@@ -86,6 +87,8 @@ impl<'a> PathTracer<'a> {
         let mut prev = Vertex::Camera;
         let mut caustic: Option<CausticOrigin> = None;
         let mut first_non_delta = true;
+        // Delta-sampled vertices since the last non-delta vertex (T2's chain length, method.md §4).
+        let mut delta_vertices: u32 = 0;
         // Number of segments of the path up to the current hit.
         let mut depth: u32 = 1;
         loop {
@@ -103,7 +106,7 @@ impl<'a> PathTracer<'a> {
                     if le == Vec3::ZERO {
                         continue;
                     }
-                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), le, light_emits_photons(light));
+                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), le, light_emits_photons(light), delta_vertices);
                     l += beta * w * le;
                 }
                 break;
@@ -119,7 +122,7 @@ impl<'a> PathTracer<'a> {
                         Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),
                         _ => 0.0,
                     };
-                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, le, true) * le;
+                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, le, true, delta_vertices) * le;
                 }
             }
             if depth >= max_depth {
@@ -174,7 +177,9 @@ impl<'a> PathTracer<'a> {
             let wi_world = si.frame.to_world(bs.wi_local);
             if bs.delta {
                 prev = Vertex::Delta;
+                delta_vertices = delta_vertices.saturating_add(1);
             } else {
+                delta_vertices = 0;
                 prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
                 caustic = delta_area.map(|delta_area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), delta_area, alpha });
             }

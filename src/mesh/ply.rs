@@ -12,6 +12,9 @@
 //! Polygons are triangulated as fans `(v0, v_i, v_{i+1})`, which keeps their winding. Other elements
 //! (edges, materials, ...) and other properties are skipped. Out-of-range or negative indices and faces
 //! with fewer than three vertices are errors that name the file and the face.
+//!
+//! [`write_ply`] writes the same subset (binary little endian: positions, normals and uvs if present,
+//! `uchar`/`int` index lists), e.g. so that another renderer can load exactly our triangles.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader};
@@ -135,6 +138,44 @@ pub fn read_ply<R: BufRead>(reader: R, path: &Path) -> Result<TriangleMesh, Mesh
         mesh.indices.extend(corners.windows(2).skip(1).map(|w| [corners[0], w[0], w[1]]));
     }
     Ok(mesh)
+}
+
+/// Writes `mesh` as a binary little-endian PLY: `x y z` (float), `nx ny nz` and `u v` (float) when the mesh
+/// has them, faces as `list uchar int vertex_indices`. [`read_ply`] reads it back exactly.
+pub fn write_ply<W: std::io::Write>(mesh: &TriangleMesh, mut w: W) -> std::io::Result<()> {
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment written by caustica\nelement vertex {}\n\
+property float x\nproperty float y\nproperty float z\n",
+        mesh.positions.len()
+    );
+    if mesh.normals.is_some() {
+        header.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    if mesh.uvs.is_some() {
+        header.push_str("property float u\nproperty float v\n");
+    }
+    header.push_str(&format!("element face {}\nproperty list uchar int vertex_indices\nend_header\n", mesh.indices.len()));
+    let mut bytes = header.into_bytes();
+    for (i, p) in mesh.positions.iter().enumerate() {
+        let mut attrs: Vec<f32> = p.to_array().to_vec();
+        if let Some(n) = &mesh.normals {
+            attrs.extend_from_slice(&n[i].to_array());
+        }
+        if let Some(uv) = &mesh.uvs {
+            attrs.extend_from_slice(&uv[i].to_array());
+        }
+        for a in attrs {
+            bytes.extend_from_slice(&a.to_le_bytes());
+        }
+    }
+    for tri in &mesh.indices {
+        bytes.push(3);
+        for &i in tri {
+            let i = i32::try_from(i).map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("vertex index {i} does not fit a PLY int")))?;
+            bytes.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    w.write_all(&bytes)
 }
 
 /// Property-name pairs read as texture coordinates, in order of preference.
@@ -317,6 +358,18 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
             assert_eq!(mesh.positions[3], Vec3::new(0.0, 3.0, -1.5));
             assert!(mesh.normals.is_none() && mesh.uvs.is_none());
         }
+    }
+
+    #[test]
+    fn write_then_read_is_exact() {
+        let sphere = crate::mesh::shapes::sphere(Vec3::new(0.4, -0.35, 0.25), 0.3, 5, 7);
+        let mut bytes = Vec::new();
+        write_ply(&sphere, &mut bytes).unwrap();
+        let back = read(&bytes).unwrap();
+        assert_eq!(back.positions, sphere.positions);
+        assert_eq!(back.indices, sphere.indices);
+        assert_eq!(back.normals, sphere.normals);
+        assert_eq!(back.uvs, sphere.uvs);
     }
 
     #[test]

@@ -11,8 +11,13 @@
 //!   divided by it). At a surface with a non-delta lobe the photon is stored; it continues only if
 //!   that surface's sampler then chooses a delta lobe (a blend of delta and non-delta), which keeps
 //!   photons consistent with eye paths that treat each sampled lobe as delta or not.
-//! - Chains longer than [`MAX_DELTA_CHAIN`] are cut and counted in the stats.
+//! - Chains longer than [`MAX_DELTA_CHAIN`] are cut and counted in the stats. Whether T1 can make a
+//!   path is decided by ONE rule, [`photon_chain_reaches`], used here and by T2's weight
+//!   (`integrator::caustic`): a path whose delta chain the photon pass cuts gets `w₂ = 1`.
 //! - Photon `i` of pass `p` draws from `Sampler::for_photon(seed, p, i)`: the map is deterministic.
+//! - A stop request (Ctrl-C, a time limit) is polled every [`STOP_POLL`] photons: the pass then ends
+//!   within milliseconds, and N counts exactly the photons that were traced (each photon is an
+//!   independent sample, so any subset chosen without looking at them is an unbiased map of its N).
 
 use std::time::Instant;
 
@@ -31,6 +36,16 @@ use crate::scene::Scene;
 /// Longest chain of delta bounces a photon follows.
 pub const MAX_DELTA_CHAIN: u32 = 16;
 
+/// Whether the photon pass can store a photon at the end of a chain of `delta_vertices` delta-sampled
+/// vertices between the light and the first non-delta vertex (`1..=`[`MAX_DELTA_CHAIN`]). The photon
+/// pass cuts every other chain, so T1 cannot make such a path and T2 must take it whole (`w₂ = 1`):
+/// both sides ask this one function (method.md §4).
+#[must_use]
+#[inline]
+pub fn photon_chain_reaches(delta_vertices: u32) -> bool {
+    (1..=MAX_DELTA_CHAIN).contains(&delta_vertices)
+}
+
 /// Whether `light` takes part in the photon pass (area lights and env maps do; `constant` does not).
 #[must_use]
 pub fn light_emits_photons(light: &Light) -> bool {
@@ -45,6 +60,11 @@ pub struct PhotonMap {
 }
 
 impl PhotonMap {
+    /// A map over `tree` whose photons came from `emitted` emissions of total power `total_power`.
+    #[must_use]
+    pub fn new(tree: KdTree, emitted: u64, total_power: f32) -> Self {
+        Self { tree, emitted, total_power }
+    }
     #[must_use]
     pub fn tree(&self) -> &KdTree {
         &self.tree
@@ -69,6 +89,8 @@ pub struct PhotonPassStats {
     pub bytes: u64,
     pub rays: u64,
     pub chains_capped: u64,
+    /// The stop request ended the pass before its budget: `emitted` counts what was traced.
+    pub stopped: bool,
     pub seconds_trace: f64,
     pub seconds_kdtree: f64,
 }
@@ -92,8 +114,11 @@ pub fn photon_light_powers(scene: &Scene) -> Vec<f32> {
 #[derive(Default)]
 struct Traced {
     photons: Vec<Photon>,
+    /// Photons traced (stored or not): N's share of this range.
+    emitted: u64,
     rays: u64,
     capped: u64,
+    stopped: bool,
 }
 
 /// How many photons a pass emits.
@@ -113,6 +138,9 @@ pub const MAX_EMITTED_PER_STORED: u64 = 10_000;
 /// Photons per parallel work item.
 const CHUNK: u64 = 4096;
 
+/// Photons traced between two polls of the stop request.
+pub const STOP_POLL: u64 = 64;
+
 struct Emitter<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
@@ -123,53 +151,68 @@ struct Emitter<'a> {
     delta_bounds: Aabb,
     seed: u64,
     pass: u64,
+    stop: &'a (dyn Fn() -> bool + Sync),
 }
 
 impl Emitter<'_> {
-    /// Traces photons with indices `start..end`; powers are for N = 1 (divided by N afterwards).
+    /// Traces photons with indices `start..end` (fewer if the stop request comes); powers are for
+    /// N = 1 (divided by N afterwards).
     fn trace_range(&self, start: u64, end: u64, out: &mut Traced) {
         let chunks: Vec<Traced> = (start / CHUNK..end.div_ceil(CHUNK))
             .into_par_iter()
             .map(|c| {
                 let mut t = Traced::default();
                 for i in (c * CHUNK).max(start)..((c + 1) * CHUNK).min(end) {
+                    if i % STOP_POLL == 0 && (self.stop)() {
+                        t.stopped = true;
+                        break;
+                    }
                     let mut sampler = Sampler::for_photon(self.seed, self.pass, i);
                     trace_one(self, &mut sampler, &mut t);
+                    t.emitted += 1;
                 }
                 t
             })
             .collect();
         for t in chunks {
             out.photons.extend_from_slice(&t.photons);
+            out.emitted += t.emitted;
             out.rays += t.rays;
             out.capped += t.capped;
+            out.stopped |= t.stopped;
         }
     }
 }
 
 /// Emits photons for pass `pass` within `budget` and builds their kd-tree (which fails only past 2³²
-/// stored photons).
-pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, seed: u64, pass: u64) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
+/// stored photons). `stop` is polled every [`STOP_POLL`] photons; when it returns true the pass ends
+/// early with the photons traced so far (N = their number, [`PhotonPassStats::stopped`] set).
+pub fn trace_photons(
+    scene: &Scene,
+    accel: &dyn Accel,
+    budget: PhotonBudget,
+    seed: u64,
+    pass: u64,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
     let t0 = Instant::now();
     let powers = photon_light_powers(scene);
     let total_power: f32 = powers.iter().sum();
     let (center, radius) = scene.bounds.bounding_sphere();
     let mut traced = Traced::default();
-    let mut emitted = 0u64;
     if let Some(selection) = Distribution1D::new(&powers) {
-        let em = Emitter { scene, accel, selection, center, radius, delta_bounds: scene.delta_bounds(), seed, pass };
+        let em = Emitter { scene, accel, selection, center, radius, delta_bounds: scene.delta_bounds(), seed, pass, stop };
         match budget {
-            PhotonBudget::Emitted(n) => {
-                em.trace_range(0, n, &mut traced);
-                emitted = n;
-            }
+            PhotonBudget::Emitted(n) => em.trace_range(0, n, &mut traced),
             PhotonBudget::Stored(target) => {
                 let cap = target.saturating_mul(MAX_EMITTED_PER_STORED);
                 let mut batch = target.max(CHUNK);
-                while (traced.photons.len() as u64) < target && emitted < cap {
-                    let end = (emitted + batch).min(cap);
-                    em.trace_range(emitted, end, &mut traced);
-                    emitted = end;
+                let mut end = 0u64;
+                while (traced.photons.len() as u64) < target && end < cap && !traced.stopped {
+                    let start = end;
+                    end = (start + batch).min(cap);
+                    em.trace_range(start, end, &mut traced);
+                    let emitted = traced.emitted;
                     let stored = traced.photons.len() as u64;
                     // Next batch: what the observed storage rate says is missing, plus 5%.
                     batch = if stored == 0 {
@@ -182,6 +225,7 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, see
             }
         }
     }
+    let emitted = traced.emitted;
     // Power = Le·|cos θ′| / (N·p) (method.md §2): the 1/N is applied now that N is known.
     let inv_n = if emitted > 0 { 1.0 / emitted as f32 } else { 0.0 };
     let photons: Vec<Photon> = traced.photons.iter().map(|p| p.with_power(p.power() * inv_n)).collect();
@@ -195,6 +239,7 @@ pub fn trace_photons(scene: &Scene, accel: &dyn Accel, budget: PhotonBudget, see
         bytes: tree.memory_bytes() as u64,
         rays: traced.rays,
         chains_capped: traced.capped,
+        stopped: traced.stopped,
         seconds_trace,
         seconds_kdtree: t1.elapsed().as_secs_f64(),
     };
@@ -241,7 +286,8 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
         if !bsdf.has_delta() {
             return;
         }
-        if delta_bounces >= MAX_DELTA_CHAIN {
+        if !photon_chain_reaches(delta_bounces + 1) {
+            // One more delta bounce would make a chain no photon may store (T2 takes those paths).
             out.capped += 1;
             return;
         }

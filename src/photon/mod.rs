@@ -6,5 +6,5 @@ pub mod kdtree;
 pub mod record;
 
 pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor};
-pub use emit::{light_emits_photons, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
+pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use record::Photon;

@@ -7,13 +7,10 @@
 //! every pass the film is compared with the reference (the comparison's own time is not counted, see
 //! [`crate::render::PassInfo::seconds`]).
 //!
-//! **Photon growth.** Pass `p` (from 0) traces `photons × G^p` photons (`--photon-growth G`, default
-//! [`DEFAULT_PHOTON_GROWTH`]). With k fixed, the k-NN radius shrinks like `N^{-1/2}`, so the kernel bias
-//! of pass p falls like `G^{-p}`; the film's average of the passes then has a bias that falls like `1/P`
-//! after P passes, while a constant budget (G = 1) would keep the first pass's bias for ever. The photon
-//! pass's cost grows like `G^p` too, but it is small next to the eye passes at the budgets used here
-//! (the paper's 70,000 photons against 307,200 eye paths per spp); G = 1.1 doubles the photon budget every
-//! ~7 passes.
+//! **Progressive schedule** (method.md §6, the library's [`crate::render::area_scale_for_pass`]): every
+//! pass traces the same photon budget, so the photon pass keeps a fixed share of the time and memory, and
+//! the density estimate of pass `p` uses the fraction `(p+1)^(a−1)` of its k-NN area (a = 2/3): the
+//! kernel bias of the average falls like `P^(a−1)` and its variance like `P^(−a)` after P passes.
 //!
 //! Outputs in DIR (all written atomically): `errors.csv` (one row per pass and estimator), `error.svg/png`
 //! (log-log RMSE against time, one line per estimator) and `error-<region>.svg/png` per region,
@@ -33,15 +30,13 @@ use super::error_log::{progress_text, ErrorTracker, PassError};
 use super::plot::{error_plot, side_by_side, Panel, Series};
 use crate::accel::{build_accel, BackendKind};
 use crate::cmd::photon_args::PhotonArgs;
-use crate::cmd::render::{photon_growth, set_resolution, write_json_atomic};
+use crate::cmd::render::{set_resolution, write_json_atomic};
 use crate::film::io::write_bytes_atomic;
 use crate::film::{write_exr, write_png, Film, Image, Rect, Tonemap};
 use crate::photon::PhotonBudget;
 use crate::render::{render, RenderPhaseStats, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
-/// Photon budget growth per pass of `converge` (see the module documentation).
-pub const DEFAULT_PHOTON_GROWTH: f64 = 1.1;
 
 /// Which error the time-to-error table and the targets use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
@@ -91,9 +86,6 @@ pub struct ConvergeArgs {
     /// Samples per pixel of one pass.
     #[arg(long, default_value_t = 4)]
     pub pass_spp: u32,
-    /// Photon budget growth per pass: pass p uses photons × G^p.
-    #[arg(long, default_value_t = DEFAULT_PHOTON_GROWTH)]
-    pub photon_growth: f64,
     #[command(flatten)]
     pub photon: PhotonArgs,
     #[arg(long)]
@@ -175,7 +167,7 @@ struct Summary<'a> {
     height: u32,
     time_budget: f64,
     pass_spp: u32,
-    photon_growth: f64,
+    area_exponent: f64,
     photons: String,
     knn: u32,
     max_radius: f32,
@@ -296,7 +288,6 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
     if let Some(t) = args.target_errors.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
         bail!("--target-error must be a positive number, got {t}");
     }
-    let growth = photon_growth(args.photon_growth)?;
     args.photon.validate()?;
     let mut scene = Scene::load(&args.scene)?;
     set_resolution(&mut scene, args.width, args.height)?;
@@ -313,7 +304,6 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
     let mut base = RenderSettings::from_scene(&scene);
     base.pass_spp = args.pass_spp;
     base.time_limit = Some(args.time_budget);
-    base.photon_growth = growth;
     args.photon.apply(&mut base);
     if let Some(s) = args.seed {
         base.seed = s;
@@ -334,7 +324,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
         let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), Rect::new(x0, y0, x1, y1))?;
         let mut metric_error: Option<anyhow::Error> = None;
         if !args.quiet {
-            eprintln!("converge: {} for {} s ({} spp per pass, photons {} × {growth}^pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
+            eprintln!("converge: {} for {} s ({} spp per pass, photons {} per pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
         }
         let t = Instant::now();
         let stats = pool.install(|| {
@@ -402,7 +392,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<()> {
         height,
         time_budget: args.time_budget,
         pass_spp: args.pass_spp,
-        photon_growth: growth,
+        area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         photons: describe_budget(base.photons),
         knn: base.knn,
         max_radius: base.max_radius,

@@ -21,6 +21,9 @@ pub struct RegionError {
     pub name: String,
     pub rmse: f64,
     pub relmse: f64,
+    /// Relative mean bias of the region: `Y(mean image) / Y(mean reference) − 1` (its noise averages out
+    /// over the region's pixels, so a progressive render's kernel bias shows here).
+    pub bias: f64,
 }
 
 /// The figures of one pass: time and work so far, and the errors against the reference.
@@ -137,7 +140,7 @@ impl ErrorTracker {
             photons_stored: info.photons_stored,
             rmse: c.whole.rmse,
             relmse: c.whole.relmse,
-            regions: c.regions.iter().map(|r| RegionError { name: r.region.name.clone(), rmse: r.metrics.rmse, relmse: r.metrics.relmse }).collect(),
+            regions: c.regions.iter().map(|r| RegionError { name: r.region.name.clone(), rmse: r.metrics.rmse, relmse: r.metrics.relmse, bias: r.metrics.luminance_ratio - 1.0 }).collect(),
         });
         Ok(self.rows.last().expect("just pushed"))
     }
@@ -151,7 +154,7 @@ impl ErrorTracker {
         }
         s.push_str("pass,seconds,spp,photons_emitted,photons_stored,rmse,relmse");
         for r in &self.regions {
-            let _ = write!(s, ",{0}_rmse,{0}_relmse", r.name);
+            let _ = write!(s, ",{0}_rmse,{0}_relmse,{0}_bias", r.name);
         }
         s.push('\n');
         s
@@ -167,7 +170,7 @@ impl ErrorTracker {
             }
             let _ = write!(s, "{},{:.6},{},{},{},{:.9e},{:.9e}", row.pass, row.seconds, row.spp, row.photons_emitted, row.photons_stored, row.rmse, row.relmse);
             for r in &row.regions {
-                let _ = write!(s, ",{:.9e},{:.9e}", r.rmse, r.relmse);
+                let _ = write!(s, ",{:.9e},{:.9e},{:.9e}", r.rmse, r.relmse, r.bias);
             }
             s.push('\n');
         }
