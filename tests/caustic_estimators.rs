@@ -169,7 +169,7 @@ film = { width = 24, height = 16 }
 [[shape]]
 type = "rectangle"
 to_world = [ { scale = 2 }, { rotate = { axis = [1, 0, 0], angle = -90 } } ]
-bsdf = { type = "blendbsdf", weight = 0.5, bsdf_0 = { type = "diffuse", reflectance = 0.5 }, bsdf_1 = { type = "roughconductor", alpha = 0.1 } }
+bsdf = { type = "blendbsdf", weight = 0.5, bsdf_0 = { type = "diffuse", reflectance = 0.5 }, bsdf_1 = { type = "roughconductor", distribution = "ggx", alpha = 0.1 } }
 [[shape]]
 type = "sphere"
 center = [0, 0.5, 0]

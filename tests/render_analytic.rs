@@ -26,7 +26,7 @@
 //! - (b) **White furnace**: white (ρ = 1) Lambertian objects under a `constant` emitter of radiance 1 look
 //!   exactly 1 everywhere. Two spheres side by side see each other, so paths bounce between them;
 //!   with ρ = 1 only Russian roulette (survival capped at 0.95) ends them.
-//! - (c) **Rough conductor furnace**: a GGX `roughconductor` (α = 0.3, specular reflectance 1, no Fresnel)
+//! - (c) **Rough conductor furnace**: a GGX and a Beckmann `roughconductor` (α = 0.3, specular reflectance 1, no Fresnel)
 //!   sphere under a constant emitter of radiance 1. A convex object cannot see itself, so a pixel is the
 //!   directional albedo E(μ) = ∫ f·cos θᵢ dωᵢ at its view cosine μ; E < 1 by the single-scattering energy
 //!   loss of the microfacet model (Smith masking). E(μ) is computed here by quadrature, independently of
@@ -151,12 +151,30 @@ radiance = 1
 /// integrand `G1(o)·G1(i)·(o·h)/(μ·cos θ_h)` (bounded) is summed on an `n × n` midpoint grid.
 /// `G1(v) = 2 cos θ_v / (cos θ_v + √(cos²θ_v + α² sin²θ_v))` (Walter et al. 2007, eq. 34).
 fn ggx_albedo(alpha: f64, mu: f64, n: usize) -> f64 {
-    let g1 = |c: f64| 2.0 * c / (c + (c * c + alpha * alpha * (1.0 - c * c)).sqrt());
+    microfacet_albedo(false, alpha, mu, n)
+}
+
+/// [`ggx_albedo`] for GGX (`beckmann = false`) or Beckmann: `h` ~ D·cos θ_h by the inverse CDF of tan²θ_h,
+/// `α² t/(1 − t)` (GGX, Walter 2007 eq. 35) or `−α² ln(1 − t)` (Beckmann, eq. 28), and Smith's G1 of each,
+/// `2/(1 + sqrt(1 + α² tan²θ))` (eq. 34) or `2/(1 + erf a + exp(−a²)/(a√π))`, `a = 1/(α tan θ)` (eq. 27).
+fn microfacet_albedo(beckmann: bool, alpha: f64, mu: f64, n: usize) -> f64 {
+    let g1 = |c: f64| {
+        if beckmann {
+            let a = c / (alpha * (1.0 - c * c).max(0.0).sqrt());
+            if a.is_finite() {
+                2.0 / (1.0 + libm::erf(a) + (-a * a).exp() / (a * std::f64::consts::PI.sqrt()))
+            } else {
+                1.0
+            }
+        } else {
+            2.0 * c / (c + (c * c + alpha * alpha * (1.0 - c * c)).sqrt())
+        }
+    };
     let o = [(1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu];
     let mut sum = 0.0;
     for a in 0..n {
         let t = (a as f64 + 0.5) / n as f64;
-        let tan2 = alpha * alpha * t / (1.0 - t);
+        let tan2 = if beckmann { -alpha * alpha * (-t).ln_1p() } else { alpha * alpha * t / (1.0 - t) };
         let cos_h = 1.0 / (1.0 + tan2).sqrt();
         let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
         for b in 0..n {
@@ -212,6 +230,10 @@ fn ggx_albedo_quadrature_is_sane() {
     // The grid used by the test (256²) has converged: within 2·10⁻⁴ of 1024².
     let (coarse, fine) = (ggx_albedo(0.3, 0.5, 256), ggx_albedo(0.3, 0.5, 1024));
     assert!((coarse - fine).abs() < 2e-4, "{coarse} vs {fine}");
+    // The same for Beckmann.
+    assert!((microfacet_albedo(true, 1e-3, 0.7, 256) - 1.0).abs() < 1e-3);
+    let (bc, bf) = (microfacet_albedo(true, 0.3, 0.5, 256), microfacet_albedo(true, 0.3, 0.5, 1024));
+    assert!((bc - bf).abs() < 2e-4 && bf < 1.0 && bf > 0.5, "{bc} vs {bf}");
     // Energy is lost, never gained. At normal incidence the mirror direction of an h beyond 45° is below
     // the horizon; under D·cos θ_h that mass is P(tan²θ_h > 1) = P(t > 1/(1 + α²)) = α²/(1 + α²).
     let e1 = ggx_albedo(0.3, 1.0, 512);
@@ -221,7 +243,17 @@ fn ggx_albedo_quadrature_is_sane() {
 
 #[test]
 fn rough_conductor_furnace_matches_albedo_quadrature() {
+    rough_conductor_furnace(false);
+}
+
+#[test]
+fn beckmann_rough_conductor_furnace_matches_albedo_quadrature() {
+    rough_conductor_furnace(true);
+}
+
+fn rough_conductor_furnace(beckmann: bool) {
     let alpha = 0.3;
+    let distribution = if beckmann { "beckmann" } else { "ggx" };
     let text = format!(
         r#"
 [integrator]
@@ -235,16 +267,18 @@ film = {{ width = 64, height = 64 }}
 [[shape]]
 type = "sphere"
 radius = 1
-bsdf = {{ type = "roughconductor", alpha = {alpha}, specular_reflectance = 1 }}
+bsdf = {{ type = "roughconductor", distribution = "{distribution}", alpha = {alpha}, specular_reflectance = 1 }}
 
 [[emitter]]
 type = "constant"
 radiance = 1
 "#
     );
-    let scene = scene_from_toml("ggx-furnace.toml", &text);
+    let scene = scene_from_toml(&format!("{distribution}-furnace.toml"), &text);
     // E(μ) tabulated on [0, 1] (linear interpolation between 129 nodes; E varies by < 0.3% per step).
-    let table: Vec<f64> = (0..=128).map(|i| ggx_albedo(alpha, (f64::from(i) / 128.0).max(1e-4), 256)).collect();
+    let table: Vec<f64> = (0..=128)
+        .map(|i| microfacet_albedo(beckmann, alpha, (f64::from(i) / 128.0).max(1e-4), 256))
+        .collect();
     let e = |mu: f64| {
         let x = mu.clamp(0.0, 1.0) * 128.0;
         let i = (x.floor() as usize).min(127);
@@ -295,12 +329,12 @@ radiance = 1
         }
     }
     eprintln!(
-        "rough conductor α = {alpha}: sphere pixels mean {:.5}, quadrature {:.5} ({} pixels); E(1) = {:.5}, E(0.5) = {:.5}",
+        "rough conductor {distribution} α = {alpha}: sphere pixels mean {:.5}, quadrature {:.5} ({} pixels); E(1) = {:.5}, E(0.5) = {:.5}",
         inside.0 / f64::from(inside.2),
         inside.1 / f64::from(inside.2),
         inside.2,
         e(1.0),
         e(0.5)
     );
-    check_against("rough conductor furnace", &lum, &|x, y| pixel(x, y).0);
+    check_against(&format!("{distribution} rough conductor furnace"), &lum, &|x, y| pixel(x, y).0);
 }

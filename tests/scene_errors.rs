@@ -216,9 +216,29 @@ fn bad_values_name_the_key() {
             "must be > 0",
         ),
         (
-            shape_with("bsdf = { type = \"roughconductor\", distribution = \"beckmann\" }"),
+            shape_with("bsdf = { type = \"roughconductor\", distribution = \"phong\" }"),
             "shape[0].bsdf.distribution",
-            "ggx",
+            "beckmann",
+        ),
+        (
+            shape_with("bsdf = { type = \"twosided\", bsdf = { type = \"dielectric\" } }"),
+            "shape[0].bsdf.bsdf",
+            "transmitting",
+        ),
+        (
+            shape_with("bsdf = { type = \"twosided\" }"),
+            "shape[0].bsdf",
+            "needs `bsdf`",
+        ),
+        (
+            shape_with("bsdf = { type = \"conductor\", material = \"Unobtainium\" }"),
+            "shape[0].bsdf.material",
+            "unknown conductor",
+        ),
+        (
+            shape_with("bsdf = { type = \"roughconductor\", material = \"Au\", eta = 1, k = 1 }"),
+            "shape[0].bsdf.material",
+            "not both",
         ),
         (
             shape_with("bsdf = { type = \"dielectric\", int_ior = 0 }"),

@@ -55,7 +55,10 @@ fn cornell_matches_the_reference_numbers() {
                 corners.push(p);
             }
             assert!(s.tri_flat[2 * i + k]);
-            assert_eq!(s.bsdfs[s.tri_material[2 * i + k] as usize], Bsdf::Diffuse { reflectance: refl });
+            assert_eq!(
+                s.bsdfs[s.tri_material[2 * i + k] as usize],
+                Bsdf::TwoSided(Box::new(Bsdf::Diffuse { reflectance: refl }))
+            );
         }
         // The wall spans the full [-1,1]² square.
         let area: f32 = rect_tris(&s, i)
@@ -91,10 +94,10 @@ fn cornell_matches_the_reference_numbers() {
     let glass = 12 + sphere_tris;
     assert_eq!(
         s.bsdfs[s.tri_material[mirror] as usize],
-        Bsdf::Conductor {
+        Bsdf::TwoSided(Box::new(Bsdf::Conductor {
             specular_reflectance: Vec3::ONE,
             eta_k: None
-        }
+        }))
     );
     assert_eq!(s.bsdfs[s.tri_material[glass] as usize], Bsdf::Dielectric { eta: 1.5 });
     assert!(!s.tri_flat[mirror] && !s.tri_flat[glass]);
@@ -136,9 +139,9 @@ fn interactions_from_hits() {
     assert_eq!(si.prim / 2, 2);
     assert_eq!(
         s.bsdfs[si.material as usize],
-        Bsdf::Diffuse {
+        Bsdf::TwoSided(Box::new(Bsdf::Diffuse {
             reflectance: Vec3::splat(0.8)
-        }
+        }))
     );
 
     // Rays at the glass sphere from the camera: smooth normal close to the exact sphere normal; a reflected

@@ -1,4 +1,4 @@
-//! Smooth conductor: a two-sided perfect mirror weighted by the conductor Fresnel term for a complex
+//! Smooth conductor: a one-sided (as Mitsuba's `conductor`; `twosided` mirrors it) perfect mirror weighted by the conductor Fresnel term for a complex
 //! index of refraction `η + iκ` (relative to the exterior), or by 1 when `eta_k` is `None`
 //! (Mitsuba's material "none").
 
@@ -48,17 +48,20 @@ pub fn fresnel_conductor_rgb(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     )
 }
 
-/// The mirror direction, chosen with probability 1 (`pdf_w = 1`), weight `specular_reflectance·F(|cos θo|)`.
-/// `wo.z != 0` is checked by the caller.
+/// The mirror direction, chosen with probability 1 (`pdf_w = 1`), weight `specular_reflectance·F(cos θo)`;
+/// `None` for `wo` below the surface.
 #[must_use]
-pub(super) fn sample(specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo: Vec3) -> BsdfSample {
+pub(super) fn sample(specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo: Vec3) -> Option<BsdfSample> {
+    if wo.z <= 0.0 {
+        return None;
+    }
     let fresnel = eta_k.map_or(Vec3::ONE, |(eta, k)| fresnel_conductor_rgb(wo.z, eta, k));
-    BsdfSample {
+    Some(BsdfSample {
         wi_local: reflect_z(wo),
         weight: specular_reflectance * fresnel,
         pdf_w: 1.0,
         delta: true,
-    }
+    })
 }
 
 #[cfg(test)]
@@ -131,12 +134,14 @@ mod tests {
     }
 
     #[test]
-    fn mirror_sample_on_both_sides() {
+    fn mirror_sample_on_both_sides_when_twosided() {
         for eta_k in [None, Some((AU_ETA, AU_K))] {
-            let bsdf = Bsdf::Conductor {
+            let one_sided = Bsdf::Conductor {
                 specular_reflectance: Vec3::new(1.0, 0.5, 0.25),
                 eta_k,
             };
+            assert!(one_sided.sample(Vec3::new(0.0, -0.6, -0.8), 0.3, Vec2::new(0.2, 0.7), TransportMode::Radiance).is_none());
+            let bsdf = Bsdf::TwoSided(Box::new(one_sided));
             assert!(bsdf.has_delta() && !bsdf.has_non_delta());
             for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, -0.6, -0.8), Vec3::Z] {
                 let s = bsdf

@@ -1,37 +1,37 @@
-//! Lambertian reflection, two-sided: `f = R/π` when `wo` and `wi` are on the same side, sampled with
-//! the cosine-weighted hemisphere on `wo`'s side (pdf `|cos θi|/π`), so the sample weight is `R`.
+//! Lambertian reflection, one-sided as Mitsuba's `diffuse`: `f = R/π` when `wo` and `wi` are both above the
+//! surface (+z; `twosided` mirrors the rest), sampled with the cosine-weighted hemisphere (pdf `cos θi/π`),
+//! so the sample weight is `R`.
 
-use super::same_side;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::warp::square_to_cosine_hemisphere;
 use std::f32::consts::FRAC_1_PI;
 
-/// `R/π` on `wo`'s side, 0 across the surface.
+/// `R/π` above the surface, 0 elsewhere.
 #[must_use]
 pub(super) fn f(reflectance: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
-    if same_side(wo, wi) {
+    if wo.z > 0.0 && wi.z > 0.0 {
         reflectance * FRAC_1_PI
     } else {
         Vec3::ZERO
     }
 }
 
-/// `|cos θi|/π` on `wo`'s side.
+/// `cos θi/π` above the surface.
 #[must_use]
 pub(super) fn pdf_w(wo: Vec3, wi: Vec3) -> f32 {
-    if same_side(wo, wi) {
-        wi.z.abs() * FRAC_1_PI
+    if wo.z > 0.0 && wi.z > 0.0 {
+        wi.z * FRAC_1_PI
     } else {
         0.0
     }
 }
 
-/// A cosine-weighted direction on `wo`'s side (Malley's method).
+/// A cosine-weighted direction above the surface (Malley's method); `None` for `wo` below.
 #[must_use]
 pub(super) fn sample_wi(wo: Vec3, u_dir: Vec2) -> Option<Vec3> {
-    let mut wi = square_to_cosine_hemisphere(u_dir);
-    if wo.z < 0.0 {
-        wi.z = -wi.z;
+    if wo.z <= 0.0 {
+        return None;
     }
+    let wi = square_to_cosine_hemisphere(u_dir);
     (wi.z != 0.0).then_some(wi)
 }

@@ -9,8 +9,10 @@
 //!   computed from either side agree bit for bit.
 //! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
 //!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
-//! - Two-sided reflection: `Diffuse`, `Conductor` and `RoughConductor` reflect on both sides (when
-//!   `wo.z < 0` the configuration is mirrored to +z); `f = 0` when `wo` and `wi` lie on opposite sides.
+//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor` and `RoughConductor` reflect only when
+//!   `wo` and `wi` are both above the surface (+z); below, `f = 0`, `pdf_w = 0` and `sample → None`.
+//!   `TwoSided` (Mitsuba's `twosided`) mirrors a configuration below the surface to +z, so its inner BSDF
+//!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the exterior) is −z.
 //! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
 //!   `sample → None`. Nothing returns NaN for unit, finite inputs.
@@ -19,7 +21,8 @@
 //! ```toml
 //! bsdf = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }
 //! bsdf = { type = "conductor", material = "Au" }              # or material = "none" (perfect mirror)
-//! bsdf = { type = "roughconductor", alpha = 0.2, material = "Cu" }
+//! bsdf = { type = "roughconductor", alpha = 0.2, material = "Cu", distribution = "ggx" }   # default beckmann
+//! bsdf = { type = "twosided", bsdf = { type = "diffuse" } }
 //! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
 //! bsdf = { type = "blendbsdf", weight = 0.3, bsdf_0 = { ... }, bsdf_1 = { ... } }
 //! ```
@@ -27,12 +30,16 @@
 mod blend;
 mod conductor;
 mod dielectric;
+mod conductor_table;
 mod diffuse;
+mod microfacet;
 mod roughconductor;
 #[cfg(test)]
 mod tests;
 
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
+pub(crate) use conductor_table::CONDUCTORS;
+pub use microfacet::{Microfacet, MicrofacetType};
 pub use dielectric::fresnel_dielectric;
 
 use crate::math::{Vec2, Vec3};
@@ -48,9 +55,9 @@ pub enum Bsdf {
         specular_reflectance: Vec3,
         eta_k: Option<(Vec3, Vec3)>,
     },
-    /// GGX (Trowbridge–Reitz), isotropic `alpha`, visible-normal sampling (Heitz 2018).
+    /// Microfacet conductor (Beckmann or GGX, isotropic, [`Microfacet`]).
     RoughConductor {
-        alpha: f32,
+        distribution: Microfacet,
         specular_reflectance: Vec3,
         eta_k: Option<(Vec3, Vec3)>,
     },
@@ -58,6 +65,14 @@ pub enum Bsdf {
     Dielectric { eta: f32 },
     /// (1 − weight)·bsdf_0 + weight·bsdf_1.
     Blend { weight: f32, bsdf_0: Box<Bsdf>, bsdf_1: Box<Bsdf> },
+    /// Mitsuba's `twosided`: the inner (reflecting) BSDF on both sides of the surface.
+    TwoSided(Box<Bsdf>),
+}
+
+/// The configuration mirrored through the tangent plane.
+#[inline]
+fn flip_z(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, -v.z)
 }
 
 /// Which quantity a path carries: radiance (eye paths) or importance (photons). They differ only in
@@ -90,14 +105,6 @@ pub(crate) fn reflect_z(w: Vec3) -> Vec3 {
     Vec3::new(-w.x, -w.y, w.z)
 }
 
-/// Both directions strictly on the same side of the tangent plane (sign tests, so tiny `z` values
-/// cannot underflow a product to zero).
-#[inline]
-#[must_use]
-pub(crate) fn same_side(a: Vec3, b: Vec3) -> bool {
-    (a.z > 0.0 && b.z > 0.0) || (a.z < 0.0 && b.z < 0.0)
-}
-
 /// A usable outgoing direction: finite and not in the tangent plane.
 #[inline]
 #[must_use]
@@ -116,11 +123,13 @@ impl Bsdf {
             Bsdf::Diffuse { reflectance } => diffuse::f(*reflectance, wo_local, wi_local),
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
             Bsdf::RoughConductor {
-                alpha,
+                distribution,
                 specular_reflectance,
                 eta_k,
-            } => roughconductor::f(*alpha, *specular_reflectance, *eta_k, wo_local, wi_local),
+            } => roughconductor::f(distribution, *specular_reflectance, *eta_k, wo_local, wi_local),
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
+            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.f(flip_z(wo_local), flip_z(wi_local), mode),
+            Bsdf::TwoSided(inner) => inner.f(wo_local, wi_local, mode),
         }
     }
 
@@ -136,11 +145,13 @@ impl Bsdf {
             Bsdf::Diffuse { reflectance } => (diffuse::f(*reflectance, wo_local, wi_local), diffuse::pdf_w(wo_local, wi_local)),
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => (Vec3::ZERO, 0.0),
             Bsdf::RoughConductor {
-                alpha,
+                distribution,
                 specular_reflectance,
                 eta_k,
-            } => roughconductor::f_pdf(*alpha, *specular_reflectance, *eta_k, wo_local, wi_local),
+            } => roughconductor::f_pdf(distribution, *specular_reflectance, *eta_k, wo_local, wi_local),
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f_pdf(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
+            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.f_pdf(flip_z(wo_local), flip_z(wi_local), mode),
+            Bsdf::TwoSided(inner) => inner.f_pdf(wo_local, wi_local, mode),
         }
     }
 
@@ -153,8 +164,10 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { .. } => diffuse::pdf_w(wo_local, wi_local),
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
-            Bsdf::RoughConductor { alpha, .. } => roughconductor::pdf_w(*alpha, wo_local, wi_local),
+            Bsdf::RoughConductor { distribution, .. } => roughconductor::pdf_w(distribution, wo_local, wi_local),
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::pdf_w(*weight, bsdf_0, bsdf_1, wo_local, wi_local),
+            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.pdf_w(flip_z(wo_local), flip_z(wi_local)),
+            Bsdf::TwoSided(inner) => inner.pdf_w(wo_local, wi_local),
         }
     }
 
@@ -170,12 +183,16 @@ impl Bsdf {
             Bsdf::Conductor {
                 specular_reflectance,
                 eta_k,
-            } => Some(conductor::sample(*specular_reflectance, *eta_k, wo_local)),
-            Bsdf::RoughConductor { alpha, .. } => {
-                self.non_delta_sample(wo_local, roughconductor::sample_wi(*alpha, wo_local, u_dir)?, mode)
+            } => conductor::sample(*specular_reflectance, *eta_k, wo_local),
+            Bsdf::RoughConductor { distribution, .. } => {
+                self.non_delta_sample(wo_local, roughconductor::sample_wi(distribution, wo_local, u_dir)?, mode)
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_local, u_lobe, mode),
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::sample(self, *weight, bsdf_0, bsdf_1, wo_local, u_lobe, u_dir, mode),
+            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner
+                .sample(flip_z(wo_local), u_lobe, u_dir, mode)
+                .map(|s| BsdfSample { wi_local: flip_z(s.wi_local), ..s }),
+            Bsdf::TwoSided(inner) => inner.sample(wo_local, u_lobe, u_dir, mode),
         }?;
         debug_assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0, "bad BSDF weight {s:?}");
         debug_assert!(s.pdf_w > 0.0 && s.pdf_w.is_finite(), "bad BSDF pdf {s:?}");
@@ -189,6 +206,7 @@ impl Bsdf {
             Bsdf::Diffuse { .. } | Bsdf::RoughConductor { .. } => false,
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => (*weight < 1.0 && bsdf_0.has_delta()) || (*weight > 0.0 && bsdf_1.has_delta()),
+            Bsdf::TwoSided(inner) => inner.has_delta(),
         }
     }
 
@@ -201,6 +219,18 @@ impl Bsdf {
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => {
                 (*weight < 1.0 && bsdf_0.has_non_delta()) || (*weight > 0.0 && bsdf_1.has_non_delta())
             }
+            Bsdf::TwoSided(inner) => inner.has_non_delta(),
+        }
+    }
+
+    /// Whether some lobe transmits (crosses the surface): a dielectric, alone or in a blend.
+    #[must_use]
+    pub fn transmits(&self) -> bool {
+        match self {
+            Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::RoughConductor { .. } => false,
+            Bsdf::Dielectric { .. } => true,
+            Bsdf::Blend { bsdf_0, bsdf_1, .. } => bsdf_0.transmits() || bsdf_1.transmits(),
+            Bsdf::TwoSided(inner) => inner.transmits(),
         }
     }
 

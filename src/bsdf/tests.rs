@@ -1,6 +1,7 @@
 //! Cross-cutting BSDF tests: χ² of every sampler (several incident angles and roughness values), sampled
-//! pdf == `pdf_w()`, sample weight == f·|cos|/pdf, reciprocity, two-sidedness, energy (white furnace,
-//! sampled albedo == integrated albedo), and no NaN at grazing angles.
+//! pdf == `pdf_w()`, sample weight == f·|cos|/pdf, reciprocity, one- and two-sidedness, energy (white furnace,
+//! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
+//! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
 use super::*;
 use crate::sampler::Sampler;
@@ -8,6 +9,7 @@ use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral
 
 const ALPHAS: [f32; 4] = [0.05, 0.2, 0.6, 1.0];
 /// Incident polar angles in degrees; > 90° is below the surface (two-sided reflection).
+const KINDS: [MicrofacetType; 2] = [MicrofacetType::Beckmann, MicrofacetType::Ggx];
 const THETAS: [f32; 6] = [0.0, 30.0, 60.0, 85.0, 120.0, 150.0];
 const AU_ETA: Vec3 = Vec3::new(0.143, 0.374, 1.442);
 const AU_K: Vec3 = Vec3::new(3.983, 2.385, 1.603);
@@ -22,18 +24,29 @@ fn wo_at(theta_deg: f32) -> Vec3 {
     dir(theta_deg, 0.3)
 }
 
-fn diffuse(r: f32) -> Bsdf {
-    Bsdf::Diffuse {
-        reflectance: Vec3::splat(r),
-    }
+fn two(b: Bsdf) -> Bsdf {
+    Bsdf::TwoSided(Box::new(b))
 }
 
+/// Two-sided Lambertian.
+fn diffuse(r: f32) -> Bsdf {
+    two(Bsdf::Diffuse {
+        reflectance: Vec3::splat(r),
+    })
+}
+
+/// Two-sided GGX rough conductor (visible normals).
 fn rough(alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
-    Bsdf::RoughConductor {
-        alpha,
+    rough_with(MicrofacetType::Ggx, alpha, true, eta_k)
+}
+
+/// Two-sided rough conductor.
+fn rough_with(kind: MicrofacetType, alpha: f32, sample_visible: bool, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
+    two(Bsdf::RoughConductor {
+        distribution: Microfacet { kind, alpha, sample_visible },
         specular_reflectance: Vec3::ONE,
         eta_k,
-    }
+    })
 }
 
 fn blend(weight: f32, b0: Bsdf, b1: Bsdf) -> Bsdf {
@@ -44,11 +57,12 @@ fn blend(weight: f32, b0: Bsdf, b1: Bsdf) -> Bsdf {
     }
 }
 
+/// Two-sided perfect mirror.
 fn mirror() -> Bsdf {
-    Bsdf::Conductor {
+    two(Bsdf::Conductor {
         specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
         eta_k: None,
-    }
+    })
 }
 
 /// χ² of the non-delta part of `bsdf`'s sampler at `wo`; delta samples count as "no direction".
@@ -65,9 +79,9 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
     )
 }
 
-/// Number of χ² tests in this file (6 diffuse + 4×6 rough conductor + 6×3 + 3 blends): the family the
-/// Šidák correction accounts for.
-const CHI2_FAMILY: usize = 51;
+/// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
+/// + 6×2 + 6 + 3 blends): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 87;
 
 fn run_chi2_suite(cases: &[(String, Bsdf, Vec3, PdfIntegral)], sample_count: usize) {
     let test = Chi2Test {
@@ -102,13 +116,14 @@ fn chi2_diffuse() {
 }
 
 fn chi2_roughconductor(alpha: f32) {
-    let cases: Vec<_> = THETAS
+    let cases: Vec<_> = KINDS
         .iter()
+        .flat_map(|&kind| THETAS.iter().map(move |&t| (kind, t)))
         // Samples reflected below the horizon are lost: ∫pdf ≤ 1 (= 1 only in the limit α → 0, θo → 0).
-        .map(|&t| {
+        .map(|(kind, t)| {
             (
-                format!("roughconductor α {alpha} θo {t}"),
-                rough(alpha, Some((AU_ETA, AU_K))),
+                format!("roughconductor {} α {alpha} θo {t}", kind.name()),
+                rough_with(kind, alpha, true, Some((AU_ETA, AU_K))),
                 wo_at(t),
                 PdfIntegral::AtMostOne,
             )
@@ -138,11 +153,29 @@ fn chi2_roughconductor_alpha_1() {
 }
 
 #[test]
+fn chi2_roughconductor_without_visible_normals() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for alpha in [0.1, 0.6] {
+            for t in [20.0, 70.0, 150.0] {
+                cases.push((
+                    format!("roughconductor {} α {alpha} θo {t}, D·cos sampling", kind.name()),
+                    rough_with(kind, alpha, false, None),
+                    wo_at(t),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
 fn chi2_blend_diffuse_roughconductor() {
     let mut cases = Vec::new();
     for t in THETAS {
         for alpha in [0.05, 0.2] {
-            let b = blend(0.3, diffuse(0.8), rough(alpha, None));
+            let b = blend(0.3, diffuse(0.8), rough_with(KINDS[(alpha > 0.1) as usize], alpha, true, None));
             cases.push((
                 format!("diffuse+roughconductor(α {alpha}) w 0.3, θo {t}"),
                 b,
@@ -185,7 +218,14 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        super::roughconductor::ggx_d(alpha, h) * h.z / (4.0 * wo.dot(h))
+        Microfacet {
+            kind: MicrofacetType::Ggx,
+            alpha,
+            sample_visible: true,
+        }
+        .d(h)
+            * h.z
+            / (4.0 * wo.dot(h))
     };
     let out = Chi2Test {
         sample_count: 200_000,
@@ -206,17 +246,23 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
 fn non_delta_zoo() -> Vec<Bsdf> {
     let mut v = vec![
         diffuse(0.7),
-        Bsdf::Diffuse {
+        two(Bsdf::Diffuse {
             reflectance: Vec3::new(0.9, 0.5, 0.1),
-        },
+        }),
     ];
     for alpha in ALPHAS {
-        v.push(rough(alpha, None));
-        v.push(Bsdf::RoughConductor {
-            alpha,
-            specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
-            eta_k: Some((AU_ETA, AU_K)),
-        });
+        for kind in KINDS {
+            v.push(rough_with(kind, alpha, true, None));
+            v.push(two(Bsdf::RoughConductor {
+                distribution: Microfacet {
+                    kind,
+                    alpha,
+                    sample_visible: alpha < 0.5,
+                },
+                specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
+                eta_k: Some((AU_ETA, AU_K)),
+            }));
+        }
     }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
@@ -313,16 +359,16 @@ fn white_furnace_diffuse() {
 
 #[test]
 fn roughconductor_energy() {
-    for alpha in ALPHAS {
+    for (alpha, kind) in ALPHAS.iter().flat_map(|&a| KINDS.iter().map(move |&k| (a, k))) {
         for t in THETAS {
-            let bsdf = rough(alpha, None);
+            let bsdf = rough_with(kind, alpha, true, None);
             let wo = wo_at(t);
             let (albedo, se) = sampled_albedo(&bsdf, wo, 200_000);
             let integral = integrate_sphere(|wi| bsdf.f(wo, wi, TransportMode::Radiance).x * wi.z.abs()) as f32;
             // The sampler's estimate is unbiased: agrees with the integrated albedo within 5σ (+ quadrature error).
             assert!(
                 (albedo.x - integral).abs() <= 5.0 * se.x + 2e-3 * integral,
-                "α {alpha} θo {t}: sampled {albedo} ± {se} vs ∫ {integral}"
+                "{kind:?} α {alpha} θo {t}: sampled {albedo} ± {se} vs ∫ {integral}"
             );
             // Energy: a white rough conductor does not create energy (weight = G1(wi) ≤ 1 per sample).
             assert!(
@@ -341,7 +387,7 @@ fn roughconductor_energy() {
 #[test]
 fn blend_energy_is_the_weighted_sum() {
     let (d, rc) = (Vec3::new(0.8, 0.6, 0.4), rough(0.2, Some((AU_ETA, AU_K))));
-    let b = blend(0.3, Bsdf::Diffuse { reflectance: d }, rc.clone());
+    let b = blend(0.3, two(Bsdf::Diffuse { reflectance: d }), rc.clone());
     for t in [0.0, 45.0, 80.0, 130.0] {
         let wo = wo_at(t);
         let (albedo, se) = sampled_albedo(&b, wo, 200_000);
@@ -354,7 +400,7 @@ fn blend_energy_is_the_weighted_sum() {
         );
     }
     // Diffuse + mirror: 0.7·R_d + 0.3·R_mirror.
-    let b = blend(0.3, Bsdf::Diffuse { reflectance: d }, mirror());
+    let b = blend(0.3, two(Bsdf::Diffuse { reflectance: d }), mirror());
     for t in [20.0, 100.0] {
         let (albedo, se) = sampled_albedo(&b, wo_at(t), 200_000);
         let want = 0.7 * d + 0.3 * Vec3::new(0.9, 0.8, 0.7);
@@ -406,11 +452,24 @@ fn never_nan_at_grazing_or_degenerate_input() {
             specular_reflectance: Vec3::ONE,
             eta_k: Some((AU_ETA, AU_K)),
         },
+        Bsdf::Diffuse { reflectance: Vec3::ONE },
+        Bsdf::RoughConductor {
+            distribution: Microfacet {
+                kind: MicrofacetType::Beckmann,
+                alpha: 0.3,
+                sample_visible: true,
+            },
+            specular_reflectance: Vec3::ONE,
+            eta_k: None,
+        },
         Bsdf::Dielectric { eta: 1.5 },
         Bsdf::Dielectric { eta: 1.0 },
         Bsdf::Dielectric { eta: 1.0 / 1.33 },
         rough(0.0, None),
         rough(1e-7, Some((AU_ETA, AU_K))),
+        rough_with(MicrofacetType::Beckmann, 0.0, true, None),
+        rough_with(MicrofacetType::Beckmann, 1e-7, false, Some((AU_ETA, AU_K))),
+        rough_with(MicrofacetType::Beckmann, 2.0, true, None),
         blend(0.0, diffuse(1.0), rough(0.5, None)),
         blend(1.0, diffuse(1.0), Bsdf::Dielectric { eta: 1.5 }),
     ]);
@@ -465,6 +524,9 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
         diffuse(0.7),
         rough(0.05, None),
         rough(0.3, gold),
+        rough_with(MicrofacetType::Beckmann, 0.3, true, gold),
+        rough_with(MicrofacetType::Beckmann, 0.3, false, None),
+        Bsdf::Diffuse { reflectance: Vec3::ONE },
         blend(0.5, diffuse(0.5), rough(0.1, None)),
         blend(0.3, diffuse(0.5), mirror()),
         mirror(),
@@ -478,6 +540,49 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
             let (f, pdf) = bsdf.f_pdf(wo, wi, TransportMode::Radiance);
             assert_eq!(f, bsdf.f(wo, wi, TransportMode::Radiance), "{bsdf:?}");
             assert_eq!(pdf.to_bits(), bsdf.pdf_w(wo, wi).to_bits(), "{bsdf:?}");
+        }
+    }
+}
+
+#[test]
+fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
+    let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
+    let one_sided = [
+        Bsdf::Diffuse { reflectance: Vec3::splat(0.7) },
+        Bsdf::RoughConductor {
+            distribution: Microfacet {
+                kind: MicrofacetType::Beckmann,
+                alpha: 0.3,
+                sample_visible: true,
+            },
+            specular_reflectance: Vec3::ONE,
+            eta_k: Some((AU_ETA, AU_K)),
+        },
+        Bsdf::Conductor {
+            specular_reflectance: Vec3::ONE,
+            eta_k: None,
+        },
+        blend(0.4, Bsdf::Diffuse { reflectance: Vec3::ONE }, Bsdf::Conductor { specular_reflectance: Vec3::ONE, eta_k: None }),
+    ];
+    let mut s = Sampler::for_key(34, 0, 0);
+    for b in &one_sided {
+        let t = two(b.clone());
+        for _ in 0..2000 {
+            let wo = crate::sampling::warp::square_to_uniform_hemisphere(s.next_2d());
+            let wi = crate::sampling::warp::square_to_uniform_hemisphere(s.next_2d());
+            let (u_lobe, u) = (s.next_1d(), s.next_2d());
+            // Behind: nothing.
+            assert_eq!(b.f(flip(wo), flip(wi), TransportMode::Radiance), Vec3::ZERO, "{b:?}");
+            assert_eq!(b.pdf_w(flip(wo), flip(wi)), 0.0, "{b:?}");
+            assert!(b.sample(flip(wo), u_lobe, u, TransportMode::Radiance).is_none(), "{b:?}");
+            // Two-sided: in front the inner BSDF bit for bit, behind its mirror image.
+            assert_eq!(t.f_pdf(wo, wi, TransportMode::Radiance), b.f_pdf(wo, wi, TransportMode::Radiance));
+            assert_eq!(t.f_pdf(flip(wo), flip(wi), TransportMode::Radiance), b.f_pdf(wo, wi, TransportMode::Radiance));
+            let (front, back) = (
+                b.sample(wo, u_lobe, u, TransportMode::Radiance),
+                t.sample(flip(wo), u_lobe, u, TransportMode::Radiance),
+            );
+            assert_eq!(front.map(|x| (flip(x.wi_local), x.weight, x.pdf_w)), back.map(|x| (x.wi_local, x.weight, x.pdf_w)));
         }
     }
 }

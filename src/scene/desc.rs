@@ -122,6 +122,7 @@ pub(crate) enum BsdfType {
     RoughConductor,
     Dielectric,
     BlendBsdf,
+    TwoSided,
 }
 
 impl BsdfType {
@@ -132,6 +133,7 @@ impl BsdfType {
             BsdfType::RoughConductor => "roughconductor",
             BsdfType::Dielectric => "dielectric",
             BsdfType::BlendBsdf => "blendbsdf",
+            BsdfType::TwoSided => "twosided",
         }
     }
 }
@@ -145,13 +147,16 @@ pub(crate) struct BsdfDesc {
     pub specular_reflectance: Option<Colour>,
     pub eta: Option<Colour>,
     pub k: Option<Colour>,
+    pub material: Option<String>,
     pub alpha: Option<f32>,
     pub distribution: Option<String>,
+    pub sample_visible: Option<bool>,
     pub int_ior: Option<Ior>,
     pub ext_ior: Option<Ior>,
     pub weight: Option<f32>,
     pub bsdf_0: Option<Box<BsdfRef>>,
     pub bsdf_1: Option<Box<BsdfRef>>,
+    pub bsdf: Option<Box<BsdfRef>>,
 }
 
 /// A bsdf given by the name of a `[bsdf.<name>]` table or inline.

@@ -4,21 +4,24 @@
 //! | type | keys (default) |
 //! |---|---|
 //! | `diffuse` | `reflectance` (0.5) |
-//! | `conductor` | `specular_reflectance` (1), `eta` + `k` (both or neither; neither = perfect mirror, Mitsuba's material "none") |
-//! | `roughconductor` | `alpha` (0.1), `distribution` (only `"ggx"`), `specular_reflectance` (1), `eta` + `k` |
+//! | `conductor` | `specular_reflectance` (1), `material` ("none" = perfect mirror, or a named metal) or `eta` + `k` (both) |
+//! | `roughconductor` | `alpha` (0.1), `distribution` (`"beckmann"`, Mitsuba's default, or `"ggx"`), `sample_visible` (true), and the conductor's keys |
 //! | `dielectric` | `int_ior` (1.5046, "bk7"), `ext_ior` (1.000277, "air"): numbers or Mitsuba's IOR names |
 //! | `blendbsdf` | `weight` (0.5), `bsdf_0`, `bsdf_1` (names or inline tables; result (1−w)·bsdf_0 + w·bsdf_1) |
+//! | `twosided` | `bsdf` (a name or inline table of a non-transmitting bsdf; reflects on both sides) |
 //!
 //! Colours are one number (gray) or `[r, g, b]`; reflectances must lie in [0, 1]. Reflecting materials are
-//! two-sided (as if wrapped in Mitsuba's `twosided`). `eta`/`k` are RGB numbers (Mitsuba's named metals are
-//! not tabulated here). Shapes without a `bsdf` get Mitsuba's default, diffuse with reflectance 0.5.
+//! one-sided, as in Mitsuba: they reflect light arriving on the side the shading normal points to, and are
+//! black from behind unless wrapped in `twosided`. Named metals (`material = "Au"`, ...) are the RGB
+//! `eta`/`k` of Mitsuba's tables (`crate::bsdf::CONDUCTORS`, with their sources). Shapes without a `bsdf`
+//! get Mitsuba's default, diffuse with reflectance 0.5.
 
 use std::collections::{BTreeMap, HashMap};
 
 use super::desc::{BsdfDesc, BsdfRef, BsdfType, Ior};
 use super::error::{ErrorContext, SceneError};
 use super::spans::join_key;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Microfacet, MicrofacetType, CONDUCTORS};
 use crate::math::Vec3;
 
 /// Mitsuba's named indices of refraction (`mitsuba/render/ior.h`).
@@ -148,23 +151,27 @@ impl<'a> Materials<'a> {
     fn resolve_desc(&mut self, ctx: &ErrorContext, key: &str, d: &BsdfDesc, stack: &mut Vec<String>) -> Result<Bsdf, SceneError> {
         let allowed: &[&str] = match d.kind {
             BsdfType::Diffuse => &["reflectance"],
-            BsdfType::Conductor => &["specular_reflectance", "eta", "k"],
-            BsdfType::RoughConductor => &["alpha", "distribution", "specular_reflectance", "eta", "k"],
+            BsdfType::Conductor => &["specular_reflectance", "material", "eta", "k"],
+            BsdfType::RoughConductor => &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"],
             BsdfType::Dielectric => &["int_ior", "ext_ior"],
             BsdfType::BlendBsdf => &["weight", "bsdf_0", "bsdf_1"],
+            BsdfType::TwoSided => &["bsdf"],
         };
         let present = [
             ("reflectance", d.reflectance.is_some()),
             ("specular_reflectance", d.specular_reflectance.is_some()),
             ("eta", d.eta.is_some()),
             ("k", d.k.is_some()),
+            ("material", d.material.is_some()),
             ("alpha", d.alpha.is_some()),
             ("distribution", d.distribution.is_some()),
+            ("sample_visible", d.sample_visible.is_some()),
             ("int_ior", d.int_ior.is_some()),
             ("ext_ior", d.ext_ior.is_some()),
             ("weight", d.weight.is_some()),
             ("bsdf_0", d.bsdf_0.is_some()),
             ("bsdf_1", d.bsdf_1.is_some()),
+            ("bsdf", d.bsdf.is_some()),
         ];
         if let Some((name, _)) = present.iter().find(|(name, p)| *p && !allowed.contains(name)) {
             return Err(ctx.key_error(
@@ -189,7 +196,10 @@ impl<'a> Materials<'a> {
                     .specular_reflectance
                     .map_or(Ok(Vec3::ONE), |c| ctx.reflectance(&k("specular_reflectance"), c.0))?;
                 let eta_k = match (d.eta, d.k) {
-                    (None, None) => None,
+                    (None, None) => named_conductor(ctx, &k("material"), d.material.as_deref())?,
+                    (Some(_), _) | (_, Some(_)) if d.material.is_some() => {
+                        return Err(ctx.key_error(&k("material"), "give either `material` or `eta` and `k`, not both"))
+                    }
                     (Some(eta), Some(kk)) => {
                         let eta = ctx.finite3(&k("eta"), eta.0)?;
                         if eta.min_element() <= 0.0 {
@@ -210,14 +220,23 @@ impl<'a> Materials<'a> {
                         eta_k,
                     }
                 } else {
-                    if let Some(dist) = &d.distribution {
-                        if dist != "ggx" {
-                            return Err(ctx.key_error(&k("distribution"), format!("only \"ggx\" is supported, got {dist:?}")));
+                    let kind = match d.distribution.as_deref() {
+                        None | Some("beckmann") => MicrofacetType::Beckmann,
+                        Some("ggx") => MicrofacetType::Ggx,
+                        Some(other) => {
+                            return Err(ctx.key_error(
+                                &k("distribution"),
+                                format!("unknown distribution {other:?} (\"beckmann\", the default, or \"ggx\")"),
+                            ))
                         }
-                    }
+                    };
                     let alpha = d.alpha.map_or(Ok(0.1), |a| ctx.positive(&k("alpha"), a, "the roughness alpha"))?;
                     Bsdf::RoughConductor {
-                        alpha,
+                        distribution: Microfacet {
+                            kind,
+                            alpha,
+                            sample_visible: d.sample_visible.unwrap_or(true),
+                        },
                         specular_reflectance,
                         eta_k,
                     }
@@ -240,7 +259,32 @@ impl<'a> Materials<'a> {
                 let bsdf_1 = Box::new(self.resolve_ref(ctx, &k("bsdf_1"), b1, stack)?);
                 Bsdf::Blend { weight, bsdf_0, bsdf_1 }
             }
+            BsdfType::TwoSided => {
+                let Some(inner) = &d.bsdf else {
+                    return Err(ctx.key_error(key, "twosided needs `bsdf` (the bsdf used on both sides)"));
+                };
+                let inner = self.resolve_ref(ctx, &k("bsdf"), inner, stack)?;
+                if inner.transmits() {
+                    return Err(ctx.key_error(&k("bsdf"), "twosided cannot hold a transmitting bsdf (dielectric), as in Mitsuba"));
+                }
+                Bsdf::TwoSided(Box::new(inner))
+            }
         })
+    }
+}
+
+/// `eta`/`k` of Mitsuba's named conductor `name` (at `key`); `None` (perfect mirror) for "none" or absent.
+fn named_conductor(ctx: &ErrorContext, key: &str, name: Option<&str>) -> Result<Option<(Vec3, Vec3)>, SceneError> {
+    match name {
+        None | Some("none") => Ok(None),
+        Some(name) => CONDUCTORS
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, eta, k)| Some((Vec3::from_array(*eta), Vec3::from_array(*k))))
+            .ok_or_else(|| {
+                let names: Vec<&str> = CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+                ctx.key_error(key, format!("unknown conductor {name:?}; known: none, {}", names.join(", ")))
+            }),
     }
 }
 

@@ -32,7 +32,7 @@
 //! type = "blendbsdf"
 //! weight = 0.5
 //! bsdf_0 = "white"
-//! bsdf_1 = { type = "roughconductor", alpha = 0.08 }
+//! bsdf_1 = { type = "roughconductor", distribution = "ggx", alpha = 0.08 }   # default: beckmann
 //!
 //! [[shape]]
 //! type = "rectangle"           # obj | ply | rectangle | cube | sphere
@@ -57,7 +57,7 @@
 //! filename = "assets/models/teapot.obj"
 //! face_normals = false         # true: flat shading (also allowed on spheres)
 //! flip_normals = false         # any shape: reverse orientation (and emission side)
-//! bsdf = { type = "conductor" }   # perfect mirror
+//! bsdf = { type = "twosided", bsdf = { type = "conductor" } }   # perfect mirror, both sides (one-sided alone)
 //!
 //! [[emitter]]
 //! type = "envmap"
