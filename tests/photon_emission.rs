@@ -219,7 +219,9 @@ fn mirror_reflected_power_matches_the_image_light() {
         assert!((f64::from(pw.x) - per_photon).abs() < 1e-4 * per_photon, "photon power {pw:?} vs {per_photon}");
         assert_eq!(pw.x, pw.y);
         assert_eq!(pw.x, pw.z);
-        assert!((f64::from(p.le()) - LE).abs() < 1e-5 * LE, "stored Le {}", p.le());
+        // p_emit = Le/Φ = 1/(π·A) (the light lies inside the mirror's bounding sphere: cosine emission).
+        let pdf_emit = 1.0 / (std::f64::consts::PI * a_light);
+        assert!((f64::from(p.pdf_emit()) - pdf_emit).abs() < 1e-5 * pdf_emit, "stored p_emit {}", p.pdf_emit());
         if dist_to_plane(p.position(), recv) < 1e-3 {
             k_recv += 1;
             sum += f64::from(pw.x);
@@ -283,7 +285,7 @@ fn photon_pass_is_deterministic_per_seed_and_pass() {
 
 fn key_of(p: &Photon) -> [u32; 8] {
     let (a, b) = (p.position(), p.wi_world());
-    [a.x, a.y, a.z, b.x, b.y, b.z, p.power().x, p.le()].map(f32::to_bits)
+    [a.x, a.y, a.z, b.x, b.y, b.z, p.power().x, p.pdf_emit()].map(f32::to_bits)
 }
 
 /// `PhotonBudget::Stored(m)` emits until ≥ m photons are stored; the second batch aims 5 % past the

@@ -11,7 +11,10 @@
 //! | `pm`  | 1 | 0 |
 //! | `mis` | q₁²/(q₁²+q₂²) | 1 − w₁ |
 //!
-//! `q₁ = N·Le·|cos θ|·ΔA / (Φ·α)` (paper eq. 2, method.md §4) and `q₂ = pdf_w` of the BSDF sampler at `x`.
+//! `q₁ = N·p_emit·|cos θ|·ΔA / α` (paper eq. 2 with `Le/Φ` generalised to the emission density `p_emit`
+//! per unit area and projected solid angle, method.md §4; `photon::emission`) and `q₂ = pdf_w` of the
+//! BSDF sampler at `x`. T1 reads `p_emit` from the photon, T2 asks the emission model for the light
+//! point it reached.
 //! Both sides call [`CausticEstimator::q1`] and the project's one MIS function
 //! [`crate::sampling::mis::mis_weight_pair`], so `w₁ + w₂ = 1` for the same path by construction.
 //!
@@ -22,7 +25,7 @@
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{photon_chain_reaches, PhotonMap};
+use crate::photon::{photon_chain_reaches, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -107,16 +110,18 @@ impl<'a> CausticEstimator<'a> {
         self.min_area
     }
 
-    /// `q₁ = N·Le·|cos θ|·ΔA / (Φ·α)` — paper eq. 2, method.md §4. Computed in f64; a value beyond f32
-    /// saturates to ∞, which the MIS function maps to its limit.
+    /// `q₁ = N·p_emit·|cos θ|·ΔA / α` — paper eq. 2 (where `p_emit = Le/Φ`), method.md §4. Computed in
+    /// f64; a value beyond f32 saturates to ∞, which the MIS function maps to its limit.
     #[must_use]
-    pub fn q1(&self, le: f32, cos_theta: f32, delta_area: f32, alpha: f32) -> f32 {
+    pub fn q1(&self, pdf_emit: f32, cos_theta: f32, delta_area: f32, alpha: f32) -> f32 {
         let Some(map) = self.map else { return 0.0 };
-        let phi = f64::from(map.total_power());
-        if phi <= 0.0 {
-            return 0.0;
-        }
-        (map.emitted() as f64 * f64::from(le) * f64::from(cos_theta.abs()) * f64::from(delta_area) / (phi * f64::from(alpha))) as f32
+        (map.emitted() as f64 * f64::from(pdf_emit) * f64::from(cos_theta.abs()) * f64::from(delta_area) / f64::from(alpha)) as f32
+    }
+
+    /// The emission model of this pass's photons (T2 asks it for `p_emit`); `None` without photons.
+    #[must_use]
+    pub fn emission(&self) -> Option<&PhotonEmission> {
+        self.map.and_then(PhotonMap::emission)
     }
 
     /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).
@@ -136,7 +141,7 @@ impl<'a> CausticEstimator<'a> {
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
         let photons = map.tree().photons();
-        // q₁ = (N·ΔA/(Φ·α))·Le·|cos θ|: the bracket is the same for every photon of this estimate.
+        // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
         for nb in scratch.neighbors() {
             if nb.dist2 > r2 {
@@ -151,7 +156,7 @@ impl<'a> CausticEstimator<'a> {
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let q1 = q1_scale * ph.le() * wi_local.z.abs();
+                    let q1 = q1_scale * ph.pdf_emit() * wi_local.z.abs();
                     mis_weight_pair(q1, q2).0 * f
                 }
                 _ => bsdf.f(wo_local, wi_local, TransportMode::Radiance),
@@ -161,20 +166,20 @@ impl<'a> CausticEstimator<'a> {
         Gather { l1: sum / delta_area, delta_area, photons: used }
     }
 
-    /// T2's weight for emission `le_lum` (luminance) reached from `origin` through `delta_vertices` ≥ 1
-    /// delta-sampled vertices. `has_photons`: whether the emitter that was reached emits photons. T1
-    /// cannot make the path when it does not, or when the photon pass cuts a chain that long
+    /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,
+    /// whose light point a photon would leave with density `pdf_emit` (0 for emitters without photons).
+    /// T1 cannot make the path when `pdf_emit` is 0, or when the photon pass cuts a chain that long
     /// ([`photon_chain_reaches`]): then `w₂ = 1`.
     #[must_use]
-    pub fn t2_weight(&self, origin: &CausticOrigin, le_lum: f32, has_photons: bool, delta_vertices: u32) -> f32 {
-        if !has_photons || self.map.is_none() || !photon_chain_reaches(delta_vertices) {
+    pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32) -> f32 {
+        if self.map.is_none() || !photon_chain_reaches(delta_vertices) || pdf_emit.is_nan() || pdf_emit <= 0.0 {
             return 1.0;
         }
         match self.estimator {
             Estimator::Pt => 1.0,
             Estimator::Pm => 0.0,
             Estimator::Mis => {
-                let q1 = self.q1(le_lum, origin.cos_theta, origin.delta_area, origin.alpha);
+                let q1 = self.q1(pdf_emit, origin.cos_theta, origin.delta_area, origin.alpha);
                 mis_weight_pair(q1, origin.pdf_w).1
             }
         }

@@ -9,10 +9,9 @@
 use super::caustic::{CausticEstimator, CausticOrigin};
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
-use crate::light::{luminance, Light};
+use crate::light::Light;
 use crate::math::{Ray, Vec3};
 use crate::photon::kdtree::KnnResult;
-use crate::photon::light_emits_photons;
 use crate::sampler::Sampler;
 use crate::sampling::mis::power_heuristic;
 use crate::scene::Scene;
@@ -64,14 +63,16 @@ impl<'a> PathTracer<'a> {
     /// - after a non-delta vertex: power heuristic between the BSDF pdf and NEE's `light_pdf_w`;
     /// - after a delta vertex with no non-delta vertex before (E S⁺ L, e.g. a light in a mirror): 1;
     /// - after `x S⁺` with `x` non-delta: the caustic weight `w₂` (method.md §4).
-    /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length).
-    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, le: Vec3, has_photons: bool, delta_vertices: u32) -> f32 {
+    /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length);
+    /// `pdf_emit`: the density with which the photon pass would start a photon where this emission was
+    /// found (0 for emitters without photons; evaluated only for `x S⁺ L`).
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32) -> f32 {
         match prev {
             Vertex::Camera => 1.0,
             Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
             Vertex::Delta => match caustic {
                 None => 1.0,
-                Some(origin) => self.caustics.t2_weight(origin, luminance(le), has_photons, delta_vertices),
+                Some(origin) => self.caustics.t2_weight(origin, pdf_emit(), delta_vertices),
             },
         }
     }
@@ -97,7 +98,7 @@ impl<'a> PathTracer<'a> {
             let Some(hit) = self.accel.intersect(&ray) else {
                 // Escaped: environment emission, split into the part that emits photons (env maps) and
                 // the part that does not (constant), since only the first has a T1 technique.
-                for light in lights.lights() {
+                for (index, light) in lights.lights().iter().enumerate() {
                     let le = match light {
                         Light::Env(env) => env.eval(dir),
                         Light::Constant { radiance } => *radiance,
@@ -106,7 +107,11 @@ impl<'a> PathTracer<'a> {
                     if le == Vec3::ZERO {
                         continue;
                     }
-                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), le, light_emits_photons(light), delta_vertices);
+                    let pdf_emit = || match (light, self.caustics.emission()) {
+                        (Light::Env(env), Some(em)) => em.pdf_emit_env(index, env, dir),
+                        _ => 0.0,
+                    };
+                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices);
                     l += beta * w * le;
                 }
                 break;
@@ -115,14 +120,15 @@ impl<'a> PathTracer<'a> {
             let wo_world = -dir;
 
             // Emission from an area light that was hit.
-            if lights.light_of_prim(hit.prim).is_some() {
+            if let Some(light_index) = lights.light_of_prim(hit.prim) {
                 let le = lights.le_area(hit.prim, si.ng, wo_world);
                 if le != Vec3::ZERO {
                     let light_pdf = || match prev {
                         Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),
                         _ => 0.0,
                     };
-                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, le, true, delta_vertices) * le;
+                    let pdf_emit = || self.caustics.emission().map_or(0.0, |em| em.pdf_emit_area(light_index, si.p, si.ng, wo_world));
+                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices) * le;
                 }
             }
             if depth >= max_depth {

@@ -158,13 +158,23 @@ impl AreaLight {
     /// tangent.
     #[must_use]
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, u_tri: f32) -> Option<EmissionSample> {
+        self.sample_le_with(u_pos, u_tri, |_, n| {
+            let local = square_to_cosine_hemisphere(u_dir);
+            if local.z.is_nan() || local.z <= 0.0 {
+                return None;
+            }
+            Some((Frame::from_normal(n).to_world(local).normalize(), local.z * FRAC_1_PI))
+        })
+    }
+
+    /// Photon emission with a direction rule of the caller's (`photon::emission` aims at the delta
+    /// objects): triangle ∝ area (`u_tri`), point uniform on it (`u_pos`), then `direction(point, normal)`
+    /// gives a unit direction and its solid-angle density (`None`: no photon).
+    #[must_use]
+    pub fn sample_le_with(&self, u_pos: Vec2, u_tri: f32, direction: impl FnOnce(Vec3, Vec3) -> Option<(Vec3, f32)>) -> Option<EmissionSample> {
         let (i, _, _) = self.distribution.as_ref()?.sample_discrete(u_tri);
         let (t, p, b) = self.point_on(i, u_pos);
-        let local = square_to_cosine_hemisphere(u_dir);
-        if local.z.is_nan() || local.z <= 0.0 {
-            return None;
-        }
-        let dir = Frame::from_normal(t.n).to_world(local).normalize();
+        let (dir, pdf_w_dir) = direction(p, t.n)?;
         let origin = offset_ray_origin(p, barycentric_point_error(b, t.p), t.n, dir);
         Some(EmissionSample {
             origin,
@@ -172,7 +182,7 @@ impl AreaLight {
             dir,
             le: self.radiance,
             pdf_a: self.pdf_a(),
-            pdf_w_dir: local.z * FRAC_1_PI,
+            pdf_w_dir,
         })
     }
 }

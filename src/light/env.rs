@@ -236,8 +236,16 @@ impl EnvMap {
     /// `pdf_a = 1/(π R²)`.
     #[must_use]
     pub fn sample_le(&self, u_dir: Vec2, u_disk: Vec2, center: Vec3, radius: f32) -> Option<EmissionSample> {
+        self.sample_le_toward(u_dir, u_disk, center, radius, radius)
+    }
+
+    /// [`EnvMap::sample_le`] aimed at a sphere (`center`, `radius`) inside the scene: the disk has that
+    /// sphere's radius and is centred at `center + distance·ω` (`distance` puts it outside the scene),
+    /// `pdf_a = 1/(π·radius²)`.
+    #[must_use]
+    pub fn sample_le_toward(&self, u_dir: Vec2, u_disk: Vec2, center: Vec3, radius: f32, distance: f32) -> Option<EmissionSample> {
         let (omega, pdf_w) = self.sample_direction(u_dir)?;
-        disk_emission(omega, self.eval(omega), pdf_w, u_disk, center, radius)
+        disk_emission(omega, self.eval(omega), pdf_w, u_disk, center, radius, distance)
     }
 
     /// `∫ eval(ω) dω` over the sphere (RGB), exact for the bilinear interpolant.

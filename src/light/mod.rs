@@ -176,7 +176,7 @@ impl Light {
             Light::Env(e) => e.sample_le(u_a, u_b, scene_center, scene_radius),
             Light::Constant { radiance } => {
                 let omega = square_to_uniform_sphere(u_a);
-                disk_emission(omega, *radiance, uniform_sphere_pdf_w(omega), u_b, scene_center, scene_radius)
+                disk_emission(omega, *radiance, uniform_sphere_pdf_w(omega), u_b, scene_center, scene_radius, scene_radius)
             }
         }
     }
@@ -198,15 +198,16 @@ fn infinite_light_sample(p_ref: Vec3, wi: Vec3, li: Vec3, pdf_w: f32) -> Option<
 }
 
 /// Emission from an infinite light arriving from direction `omega` (unit, toward the light): the photon
-/// starts on a disk of radius R perpendicular to `omega`, centred at `center + R·omega` (outside the
-/// bounding sphere), and travels along `-omega` (pbrt-v4 `ImageInfiniteLight::SampleLe`).
-fn disk_emission(omega: Vec3, le: Vec3, pdf_w_dir: f32, u_disk: Vec2, center: Vec3, radius: f32) -> Option<EmissionSample> {
+/// starts on a disk of radius `radius` perpendicular to `omega`, centred at `center + distance·omega`
+/// (outside the scene when `distance` is large enough; `distance = radius = R` with the scene's bounding
+/// sphere as in pbrt-v4 `ImageInfiniteLight::SampleLe`), and travels along `-omega`.
+fn disk_emission(omega: Vec3, le: Vec3, pdf_w_dir: f32, u_disk: Vec2, center: Vec3, radius: f32, distance: f32) -> Option<EmissionSample> {
     if !(radius > 0.0 && radius.is_finite() && pdf_w_dir > 0.0 && pdf_w_dir.is_finite()) || le == Vec3::ZERO {
         return None;
     }
     let frame = Frame::from_normal(omega);
     let d = square_to_uniform_disk_concentric(u_disk);
-    let origin = center + radius * (omega + d.x * frame.s + d.y * frame.t);
+    let origin = center + distance * omega + radius * (d.x * frame.s + d.y * frame.t);
     Some(EmissionSample {
         origin,
         n: -omega,

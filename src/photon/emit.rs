@@ -1,11 +1,11 @@
-//! The caustic photon pass (method.md §2): emission proportional to power from area lights and
-//! environment maps, tracing through delta bounces, storage at the first non-delta hit.
+//! The caustic photon pass (method.md §2): emission from area lights and environment maps aimed at the
+//! delta objects ([`super::emission`]), tracing through delta bounces, storage at the first non-delta hit.
 //!
-//! - Light `j` is chosen with probability `Φⱼ/Φ` among the photon-emitting lights (area lights:
-//!   `Φ = π·A·Le`; env maps: `Φ = π·R²·∫Le dω`, R the scene's bounding radius). The `constant` emitter
-//!   emits no photons: its caustics stay with BSDF sampling (w₂ = 1) in every estimator.
-//! - A photon's power is `Le·|cos θ′| / (N·p(light)·p(x′)·p(ω′))`, i.e. the exact inverse of the
-//!   sampling pdf; for a light sampled ∝ Le·cos this equals `Φ·Le_rgb / (N·Le)` of method.md §2.
+//! - Light `j` is chosen with probability `Φⱼ/Φ` among the photon-emitting lights; the start is
+//!   sampled by [`PhotonEmission::sample`]. The `constant` emitter emits no photons: its caustics stay
+//!   with BSDF sampling (w₂ = 1) in every estimator.
+//! - A photon's power is `Le·|cos θ′| / (N·p(light)·p(x′)·p(ω′)) = Le/(N·p_emit)`, the exact inverse of
+//!   the sampling pdf; the photon stores `p_emit` (per unit area and projected solid angle) for q₁.
 //! - The first hit must choose a delta lobe, else the photon is no caustic photon and is dropped.
 //!   Delta bounces are followed (glass: reflect or refract with the Fresnel probability, the power
 //!   divided by it). At a surface with a non-delta lobe the photon is stored; it continues only if
@@ -23,14 +23,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::emission::PhotonEmission;
 use super::kdtree::{KdTree, KdTreeError};
 use super::record::Photon;
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
-use crate::light::{luminance, Light};
-use crate::math::{Aabb, Vec3};
+use crate::light::Light;
+use crate::math::Aabb;
 use crate::sampler::Sampler;
-use crate::sampling::distribution::Distribution1D;
 use crate::scene::Scene;
 
 /// Longest chain of delta bounces a photon follows.
@@ -52,11 +52,12 @@ pub fn light_emits_photons(light: &Light) -> bool {
     matches!(light, Light::Area(_) | Light::Env(_))
 }
 
-/// A caustic photon map: the kd-tree over stored photons, and what q₁ needs (N and Φ).
+/// A caustic photon map: the kd-tree over stored photons, and what q₁ needs (N, and the emission
+/// model that gives T2 the density `p_emit` of a light point).
 pub struct PhotonMap {
     tree: KdTree,
     emitted: u64,
-    total_power: f32,
+    emission: Option<PhotonEmission>,
 }
 
 impl PhotonMap {
@@ -77,7 +78,12 @@ impl PhotonMap {
     /// `Φ`: total power (luminance) of the photon-emitting lights.
     #[must_use]
     pub fn total_power(&self) -> f32 {
-        self.total_power
+        self.emission.as_ref().map_or(0.0, PhotonEmission::total_power)
+    }
+    /// How the photons were emitted (`None` if no light emits photons).
+    #[must_use]
+    pub fn emission(&self) -> Option<&PhotonEmission> {
+        self.emission.as_ref()
     }
 }
 
@@ -93,22 +99,6 @@ pub struct PhotonPassStats {
     pub stopped: bool,
     pub seconds_trace: f64,
     pub seconds_kdtree: f64,
-}
-
-/// Power (luminance) of each light for the photon pass; 0 for lights that emit no photons.
-#[must_use]
-pub fn photon_light_powers(scene: &Scene) -> Vec<f32> {
-    let (_, radius) = scene.bounds.bounding_sphere();
-    scene
-        .lights
-        .lights()
-        .iter()
-        .map(|l| match l {
-            Light::Area(a) => std::f32::consts::PI * a.area() * luminance(a.radiance()),
-            Light::Env(e) => std::f32::consts::PI * radius * radius * e.integral_luminance(),
-            Light::Constant { .. } => 0.0,
-        })
-        .collect()
 }
 
 #[derive(Default)]
@@ -144,9 +134,7 @@ pub const STOP_POLL: u64 = 64;
 struct Emitter<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
-    selection: Distribution1D,
-    center: Vec3,
-    radius: f32,
+    emission: &'a PhotonEmission,
     /// [`Scene::delta_bounds`]: emitted rays that miss it are discarded untraced.
     delta_bounds: Aabb,
     seed: u64,
@@ -196,12 +184,10 @@ pub fn trace_photons(
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<(PhotonMap, PhotonPassStats), KdTreeError> {
     let t0 = Instant::now();
-    let powers = photon_light_powers(scene);
-    let total_power: f32 = powers.iter().sum();
-    let (center, radius) = scene.bounds.bounding_sphere();
+    let emission = PhotonEmission::new(scene);
     let mut traced = Traced::default();
-    if let Some(selection) = Distribution1D::new(&powers) {
-        let em = Emitter { scene, accel, selection, center, radius, delta_bounds: scene.delta_bounds(), seed, pass, stop };
+    if let Some(emission) = &emission {
+        let em = Emitter { scene, accel, emission, delta_bounds: scene.delta_bounds(), seed, pass, stop };
         match budget {
             PhotonBudget::Emitted(n) => em.trace_range(0, n, &mut traced),
             PhotonBudget::Stored(target) => {
@@ -243,29 +229,19 @@ pub fn trace_photons(
         seconds_trace,
         seconds_kdtree: t1.elapsed().as_secs_f64(),
     };
-    Ok((PhotonMap { tree, emitted, total_power }, stats))
+    Ok((PhotonMap { tree, emitted, emission }, stats))
 }
 
 fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
-    let (scene, accel, center, radius) = (em.scene, em.accel, em.center, em.radius);
-    let (light_index, pmf, _) = em.selection.sample_discrete(sampler.next_1d());
+    let (scene, accel) = (em.scene, em.accel);
+    let u_sel = sampler.next_1d();
     let u_a = sampler.next_2d();
     let u_b = sampler.next_2d();
     let u_c = sampler.next_1d();
-    let es = match &scene.lights.lights()[light_index] {
-        Light::Area(a) => a.sample_le(u_a, u_b, u_c),
-        Light::Env(e) => e.sample_le(u_a, u_b, center, radius),
-        Light::Constant { .. } => None,
-    };
-    let Some(es) = es else { return };
-    let pdf = pmf * es.pdf_a * es.pdf_w_dir;
-    let le_lum = luminance(es.le);
-    if pdf.is_nan() || pdf <= 0.0 || le_lum <= 0.0 {
-        return;
-    }
-    let cos = es.n.dot(es.dir).abs();
+    let Some(start) = em.emission.sample(scene.lights.lights(), u_sel, u_a, u_b, u_c) else { return };
+    let (es, pdf_emit) = (start.emission, start.pdf_emit);
     // Power·N = Le·|cos θ′| / p: method.md §2 with the exact sampling pdf (1/N applied by the caller).
-    let mut power = es.le * (cos / pdf);
+    let mut power = start.power_n;
     let mut ray = crate::math::Ray::new(es.origin, es.dir);
     // Only a first hit on a delta surface makes a caustic photon: a ray that misses every delta
     // triangle's box is discarded without tracing (the same photons are stored, at a fraction of the
@@ -281,7 +257,7 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
         let bsdf = &scene.bsdfs[si.material as usize];
         let wi_world = -ray.dir.normalize();
         if delta_bounces > 0 && bsdf.has_non_delta() {
-            out.photons.push(Photon::new(si.p, wi_world, power, le_lum));
+            out.photons.push(Photon::new(si.p, wi_world, power, pdf_emit));
         }
         if !bsdf.has_delta() {
             return;

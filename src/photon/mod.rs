@@ -1,10 +1,12 @@
 //! Caustic photons (method.md §2, §3): the compact photon record and the kd-tree with its k-NN query.
 //! Emission and delta-chain tracing live beside them.
 
+pub mod emission;
 pub mod emit;
 pub mod kdtree;
 pub mod record;
 
 pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor};
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
+pub use emission::PhotonEmission;
 pub use record::Photon;

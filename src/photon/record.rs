@@ -8,7 +8,7 @@
 //! | 0..12  | position | 3 × f32 |
 //! | 12..16 | incident direction ωₚ (unit, pointing back toward the light) | octahedral map, 2 × u16 |
 //! | 16..28 | RGB power Φₚ | 3 × f32 (exact; the 32-byte budget allows it, so no shared-exponent loss) |
-//! | 28..32 | Le | f32: scalar (luminance) emitted radiance of the photon's light sample (the paper's extra float) |
+//! | 28..32 | p_emit | f32: density of the photon's light sample per unit area and projected solid angle (the paper's extra float, `Le/Φ` for emission ∝ power; `photon::emission`) |
 //!
 //! Direction precision: the octahedral map (Meyer et al. 2010; Cigolle et al. 2014, "A Survey of
 //! Efficient Representations for Independent Unit Vectors", JCGT 3(2)) with 16 bits per coordinate
@@ -25,7 +25,7 @@ pub struct Photon {
     position: [f32; 3],
     wi_oct: [u16; 2],
     power: [f32; 3],
-    le: f32,
+    pdf_emit: f32,
 }
 
 const _: () = assert!(std::mem::size_of::<Photon>() <= 32);
@@ -107,16 +107,17 @@ fn decode_direction(q: [u16; 2]) -> Vec3 {
 
 impl Photon {
     /// A photon at `position` that arrived from direction `wi_world` (unit, pointing back toward the light),
-    /// carrying RGB `power`, emitted from a light sample of scalar radiance `le`.
+    /// carrying RGB `power`, emitted from a light sample of density `pdf_emit` (per unit area and projected
+    /// solid angle, method.md §4).
     #[must_use]
-    pub fn new(position: Vec3, wi_world: Vec3, power: Vec3, le: f32) -> Self {
+    pub fn new(position: Vec3, wi_world: Vec3, power: Vec3, pdf_emit: f32) -> Self {
         debug_assert!((wi_world.length_squared() - 1.0).abs() < 1e-3, "wi_world not unit: {wi_world:?}");
-        debug_assert!(power.is_finite() && le.is_finite(), "non-finite photon power {power:?} or Le {le}");
+        debug_assert!(power.is_finite() && pdf_emit.is_finite(), "non-finite photon power {power:?} or p_emit {pdf_emit}");
         Self {
             position: position.to_array(),
             wi_oct: encode_direction(wi_world),
             power: power.to_array(),
-            le,
+            pdf_emit,
         }
     }
 
@@ -155,11 +156,12 @@ impl Photon {
         Vec3::from_array(self.power)
     }
 
-    /// Scalar emitted radiance Le(x′, ω′) of the photon's light sample (method.md §2, §4: enters q₁).
+    /// `p_emit`: density of the photon's light sample per unit area and projected solid angle
+    /// (method.md §4: enters q₁ = N·p_emit·|cos θ|·ΔA/α).
     #[inline]
     #[must_use]
-    pub fn le(&self) -> f32 {
-        self.le
+    pub fn pdf_emit(&self) -> f32 {
+        self.pdf_emit
     }
 }
 
@@ -216,14 +218,14 @@ mod tests {
     }
 
     #[test]
-    fn power_position_and_le_round_trip_exactly() {
+    fn power_position_and_pdf_emit_round_trip_exactly() {
         let pos = Vec3::new(1.25e-3, -7.0e4, 3.0);
         let power = Vec3::new(1e-30, 0.5, 6.5e20);
         let p = Photon::new(pos, Vec3::new(0.6, 0.0, -0.8), power, 123.456);
         assert_eq!(p.position(), pos);
         assert_eq!(p.position_array(), &pos.to_array());
         assert_eq!(p.power(), power);
-        assert_eq!(p.le(), 123.456);
+        assert_eq!(p.pdf_emit(), 123.456);
         for w in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
             assert_eq!(Photon::new(pos, w, power, 1.0).wi_world(), w, "axes are exact");
         }
