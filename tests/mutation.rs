@@ -17,7 +17,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use caustica::accel::build_accel;
-use caustica::film::{Film, Rect};
+use caustica::film::Film;
 use caustica::photon::PhotonBudget;
 use caustica::render::{render, RenderSettings};
 use caustica::scene::{Scene, SceneError};
@@ -144,8 +144,7 @@ fn render_small(mut scene: Scene, name: &str, what: &str) {
         PhotonBudget::Stored(m) => PhotonBudget::Stored(m.min(2_000)),
     };
     let accel = build_accel(common::backend(), &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{name} {what}: {e}"));
-    let (x0, y0, x1, y1) = scene.camera.crop();
-    let mut film = Film::with_crop(32, 32, Rect::new(x0, y0, x1, y1)).expect("film");
+    let mut film = Film::with_crop(32, 32, scene.camera.crop()).expect("film");
     let cancel = AtomicBool::new(false);
     match render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |_, _| {}, &|_| {}) {
         Ok(_) => assert_eq!(film.nan_count() + film.inf_count(), 0, "{name} {what}: non-finite samples"),

@@ -31,8 +31,10 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
     Ok(Outcome::Done)
 }
 
+/// The BSDF's Mitsuba plugin name; a `twosided` wrapper is named by what it wraps.
 fn bsdf_kind(b: &Bsdf) -> &'static str {
     match b {
+        Bsdf::TwoSided(inner) => bsdf_kind(inner),
         Bsdf::Diffuse { .. } => "diffuse",
         Bsdf::Conductor { .. } => "conductor",
         Bsdf::RoughConductor { .. } => "roughconductor",

@@ -210,7 +210,7 @@ mod tests {
                     Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), Vec3::Z, Vec3::splat(1.0 / m as f32), 1.0)
                 })
                 .collect();
-            let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, 1.0);
+            let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, None);
             let est = CausticEstimator::new(Estimator::Pm, Some(&map), k, 1.0, 1.0).with_area_scale(area_scale);
             for q in 0..queries {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();

@@ -61,10 +61,10 @@ pub struct PhotonMap {
 }
 
 impl PhotonMap {
-    /// A map over `tree` whose photons came from `emitted` emissions of total power `total_power`.
+    /// A map over `tree` whose photons came from `emitted` emissions by `emission`.
     #[must_use]
-    pub fn new(tree: KdTree, emitted: u64, total_power: f32) -> Self {
-        Self { tree, emitted, total_power }
+    pub fn new(tree: KdTree, emitted: u64, emission: Option<PhotonEmission>) -> Self {
+        Self { tree, emitted, emission }
     }
     #[must_use]
     pub fn tree(&self) -> &KdTree {
@@ -229,7 +229,7 @@ pub fn trace_photons(
         seconds_trace,
         seconds_kdtree: t1.elapsed().as_secs_f64(),
     };
-    Ok((PhotonMap { tree, emitted, emission }, stats))
+    Ok((PhotonMap::new(tree, emitted, emission), stats))
 }
 
 fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
