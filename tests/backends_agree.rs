@@ -13,7 +13,7 @@ use std::path::Path;
 
 fn check(file: &str, n: usize) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
-    let (_, mesh) = load_input(&path).expect("load");
+    let (_, mesh) = load_input(&path, &Default::default()).expect("load");
     let rays = RaySets::generate(&mesh, n).expect("rays");
     let brute = BruteForce::new(&mesh.positions, &mesh.indices);
     let mut backends: Vec<Box<dyn Accel>> = vec![build_accel(BackendKind::Bvh, &mesh.positions, &mesh.indices).expect("bvh")];

@@ -14,6 +14,7 @@
 //! (`EmbreeAccel::intersect_raw_baseline`) to show what our wrapper costs. When two backends are built,
 //! every primary/incoherent hit and every shadow answer is compared.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -93,7 +94,7 @@ pub struct Agreement {
 
 /// Measures every input (each on its own) with `backends` (`None`: embree and bvh when Embree is
 /// compiled in, else bvh) on ray sets of `rays` rays, on `pool`. Prints one line per input loaded.
-pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], rays: usize, backends: Option<&[BackendKind]>) -> anyhow::Result<BenchReport> {
+pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, String>, rays: usize, backends: Option<&[BackendKind]>) -> anyhow::Result<BenchReport> {
     let backends = backend_list(backends);
     let mut report = BenchReport {
         threads: pool.current_num_threads(),
@@ -101,7 +102,7 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], rays: usize, backends: Opt
     };
     for path in inputs {
         let start = Instant::now();
-        let (name, mesh) = load_input(path)?;
+        let (name, mesh) = load_input(path, params)?;
         let load_seconds = start.elapsed().as_secs_f64();
         eprintln!("{name}: {} triangles, loaded in {load_seconds:.3} s", mesh.triangle_count());
         let input = bench_input(pool, name, &mesh, load_seconds, rays, &backends)?;
@@ -111,10 +112,11 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], rays: usize, backends: Opt
 }
 
 /// Loads one benchmark input as a single triangle soup, with the name shown in the report.
-/// Mesh files (.obj, .ply, .ply.gz) and scene files (.toml: every shape of the scene, flattened).
-pub fn load_input(path: &Path) -> anyhow::Result<(String, TriangleMesh)> {
-    let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let mesh = if is_scene { crate::scene::Scene::load(path)?.mesh } else { load_mesh(path)? };
+/// Mesh files (.obj, .ply, .ply.gz) and scene files (.toml or Mitsuba XML .xml with its parameters
+/// `params`: every shape of the scene, flattened).
+pub fn load_input(path: &Path, params: &BTreeMap<String, String>) -> anyhow::Result<(String, TriangleMesh)> {
+    let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) || crate::scene::is_xml(path);
+    let mesh = if is_scene { crate::scene::Scene::load_with_params(path, params)?.mesh } else { load_mesh(path)? };
     Ok((path.display().to_string(), mesh))
 }
 

@@ -98,6 +98,32 @@ pub fn exposure(s: &str) -> Result<f32, String> {
     checked(s, check::exposure)
 }
 
+/// Mitsuba's `-D name=value`: values of the `$name` parameters of a Mitsuba XML scene.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct SceneParams {
+    /// Sets parameter NAME of a Mitsuba XML scene (its `$NAME`, overriding `<default name="NAME">`), as
+    /// Mitsuba's -D; repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = scene_param)]
+    pub define: Vec<(String, String)>,
+}
+
+impl SceneParams {
+    /// The parameters by name (a name given twice: the last value).
+    #[must_use]
+    pub fn map(&self) -> std::collections::BTreeMap<String, String> {
+        self.define.iter().cloned().collect()
+    }
+}
+
+/// Parses `NAME=VALUE` (NAME: letters, digits and `_`).
+fn scene_param(s: &str) -> Result<(String, String), String> {
+    let (name, value) = s.split_once('=').ok_or_else(|| format!("{s:?} is not NAME=VALUE"))?;
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return Err(format!("parameter name {name:?} must be letters, digits and _"));
+    }
+    Ok((name.to_string(), value.to_string()))
+}
+
 /// The options of how a render runs that `render` and `converge` share.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RunArgs {

@@ -14,9 +14,12 @@ use crate::film::io::write_json_atomic;
 /// Arguments of `caustica bench`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// Mesh files (.obj, .ply, .ply.gz) or scene files (.toml, every shape flattened), each on its own.
+    /// Mesh files (.obj, .ply, .ply.gz) or scene files (.toml or Mitsuba 3 .xml, every shape flattened),
+    /// each on its own.
     #[arg(required = true, value_name = "MESH_OR_SCENE")]
     pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub params: args::SceneParams,
     /// Rays per ray set (the primary set uses the nearest square image made of whole 16×16 tiles).
     #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     pub rays: u64,
@@ -39,7 +42,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<Outcome> {
     let threads = args::worker_threads(args.threads);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     let rays = usize::try_from(args.rays).context("--rays is too large")?;
-    let report = measure(&pool, &args.inputs, rays, args.backends.as_deref())?;
+    let report = measure(&pool, &args.inputs, &args.params.map(), rays, args.backends.as_deref())?;
     print!("{}", format_table(&report));
     if let Some(out) = &args.json {
         write_json_atomic(out, &report)?;

@@ -27,8 +27,10 @@ use crate::scene::{Estimator, Scene};
 /// Arguments of `caustica converge`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct ConvergeArgs {
-    /// The scene file (TOML).
+    /// The scene file: TOML, or Mitsuba 3 XML (.xml).
     pub scene: PathBuf,
+    #[command(flatten)]
+    pub params: args::SceneParams,
     /// The reference image (OpenEXR, the render's size), e.g. a long `render --estimator pt` render.
     #[arg(long)]
     pub reference: PathBuf,
@@ -119,7 +121,7 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
 
 /// Runs `caustica converge`.
 pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
-    let mut scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load_with_params(&args.scene, &args.params.map())?;
     args.run.set_resolution(&mut scene)?;
     let (width, height) = (scene.camera.crop().width(), scene.camera.crop().height());
     let template = ErrorTracker::load(&args.reference, &args.regions)?;

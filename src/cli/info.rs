@@ -17,15 +17,17 @@ use crate::scene::{Estimator, Scene};
 /// Arguments of `caustica info`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct InfoArgs {
-    /// Scene files (TOML).
+    /// Scene files: TOML, or Mitsuba 3 XML (.xml).
     #[arg(required = true)]
     pub scenes: Vec<PathBuf>,
+    #[command(flatten)]
+    pub params: super::args::SceneParams,
 }
 
 /// Prints the description of every scene.
 pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
     for path in &args.scenes {
-        let scene = Scene::load(path)?;
+        let scene = Scene::load_with_params(path, &args.params.map())?;
         print!("{}", describe(&scene));
     }
     Ok(Outcome::Done)

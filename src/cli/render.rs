@@ -30,10 +30,12 @@ use crate::scene::{Estimator, Scene};
 /// Arguments of `caustica render`. Command-line values override the scene file.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// The scene file(s) (TOML). With several, each is rendered in turn to `<scene name>.exr` in the
+    /// The scene file(s): TOML, or Mitsuba 3 XML (.xml). With several, each is rendered in turn to `<scene name>.exr` in the
     /// current directory (then -o, --png, --stats, --crop, --reference and --error-log are refused).
     #[arg(required = true, num_args = 1.., value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
+    #[command(flatten)]
+    pub params: args::SceneParams,
     /// Output EXR (float32 RGB). Default: the scene's name with `.exr`, in the current directory.
     #[arg(short = 'o', long = "output", visible_alias = "outfile")]
     pub output: Option<PathBuf>,
@@ -310,7 +312,7 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
 
 /// The scene with `--width`/`--height` and `--crop` applied.
 fn load_scene(args: &RenderArgs, path: &Path) -> anyhow::Result<Scene> {
-    let mut scene = Scene::load(path)?;
+    let mut scene = Scene::load_with_params(path, &args.params.map())?;
     args.run.set_resolution(&mut scene)?;
     if let Some(c) = args.crop {
         let (w, h) = (scene.camera.width(), scene.camera.height());

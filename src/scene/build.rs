@@ -20,6 +20,7 @@ use super::material::Materials;
 use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix};
+use super::xml::Places;
 use super::Scene;
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError};
@@ -76,17 +77,41 @@ enum EmitterPlan {
     },
 }
 
-/// Parses and builds a scene; `name` is the file name used in errors, `base_dir` resolves relative paths.
+/// Parses and builds a TOML scene; `name` is the file name used in errors, `base_dir` resolves relative paths.
 pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Scene, SceneError> {
     let mut ctx = ErrorContext {
         file: name.to_path_buf(),
         spans: SpanIndex::default(),
+        places: None,
     };
     if let Err(e) = toml::from_str::<toml::Table>(text) {
         ctx.spans = SpanIndex::lines_only(text);
         return Err(ctx.syntax(&e));
     }
     ctx.spans = SpanIndex::new(text);
+    build_described(text, &ctx, base_dir, name)
+}
+
+/// Builds a scene from the description read from Mitsuba XML (`xml`): the same deserialiser and builder
+/// as a TOML file, with errors reported at the places the keys came from.
+pub(crate) fn build_xml_scene(description: &toml::Table, places: Places, base_dir: &Path, name: &Path) -> Result<Scene, SceneError> {
+    // The description goes through its TOML text so that the deserialiser's errors carry key paths.
+    let text = toml::to_string(description).map_err(|e| SceneError::Key {
+        file: name.to_path_buf(),
+        key: String::new(),
+        line: None,
+        message: format!("the scene description cannot be written as TOML: {e}"),
+    })?;
+    let ctx = ErrorContext {
+        file: name.to_path_buf(),
+        spans: SpanIndex::new(&text),
+        places: Some(places),
+    };
+    build_described(&text, &ctx, base_dir, name)
+}
+
+/// Deserialises the description `text` (well-formed TOML) and builds the scene.
+fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path) -> Result<Scene, SceneError> {
     let file: SceneFile = toml::from_str(text).map_err(|e| ctx.toml_error(&e))?;
 
     // Phase 1: plan.
@@ -178,6 +203,7 @@ pub(crate) fn build_scene(text: &str, base_dir: &Path, name: &Path) -> Result<Sc
     }
     let bounds = mesh.bounds();
     super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
+    super::clip::check(ctx, &camera, &mesh, bounds, file.sensor.near_clip, file.sensor.far_clip)?;
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
     Ok(Scene {
         path: name.to_path_buf(),

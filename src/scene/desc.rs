@@ -90,6 +90,9 @@ pub(crate) struct SensorDesc {
     pub fov: f32,
     #[serde(default)]
     pub fov_axis: FovAxis,
+    /// Mitsuba's clip planes: accepted only where they clip nothing (`clip`).
+    pub near_clip: Option<f32>,
+    pub far_clip: Option<f32>,
     pub to_world: Option<ToWorld>,
     #[serde(default)]
     pub film: FilmDesc,

@@ -6,6 +6,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use super::spans::SpanIndex;
+use super::xml::Places;
 
 /// Why a scene file was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -16,6 +17,14 @@ pub enum SceneError {
     /// The file is not valid TOML.
     #[error("{}:{line}:{column}: TOML syntax error: {message}", file.display())]
     Syntax {
+        file: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// The file is not well-formed XML.
+    #[error("{}:{line}:{column}: XML syntax error: {message}", file.display())]
+    XmlSyntax {
         file: PathBuf,
         line: usize,
         column: usize,
@@ -56,6 +65,7 @@ impl SceneError {
         match self {
             SceneError::Read { file, .. }
             | SceneError::Syntax { file, .. }
+            | SceneError::XmlSyntax { file, .. }
             | SceneError::Key { file, .. }
             | SceneError::MissingFile { file, .. }
             | SceneError::Asset { file, .. } => file,
@@ -67,7 +77,7 @@ impl SceneError {
     pub fn key(&self) -> Option<&str> {
         match self {
             SceneError::Key { key, .. } | SceneError::MissingFile { key, .. } | SceneError::Asset { key, .. } => Some(key),
-            SceneError::Read { .. } | SceneError::Syntax { .. } => None,
+            SceneError::Read { .. } | SceneError::Syntax { .. } | SceneError::XmlSyntax { .. } => None,
         }
     }
 }
@@ -97,53 +107,53 @@ impl fmt::Display for KeyPath<'_> {
     }
 }
 
-/// What every error constructor needs: the file name and the document's span index.
+/// What every error constructor needs: the file name and the document's span index, and for a
+/// description read from Mitsuba XML the places of its keys (errors then name the XML file, line and
+/// plugin or property instead of the key path).
 pub(crate) struct ErrorContext {
     pub(crate) file: PathBuf,
     pub(crate) spans: SpanIndex,
+    pub(crate) places: Option<Places>,
 }
 
 impl ErrorContext {
+    /// The file, the name and the line of `key` in errors.
+    fn locate(&self, key: &str) -> (PathBuf, String, Option<usize>) {
+        match &self.places {
+            Some(places) => {
+                let (file, label, line) = places.locate(key);
+                (file, label, Some(line))
+            }
+            None => (self.file.clone(), key.to_string(), self.spans.line_of(key)),
+        }
+    }
+
     /// A [`SceneError::Key`] about `key`.
     pub(crate) fn key_error(&self, key: &str, message: impl Into<String>) -> SceneError {
-        SceneError::Key {
-            file: self.file.clone(),
-            key: key.to_string(),
-            line: self.spans.line_of(key),
-            message: message.into(),
-        }
+        let (file, key, line) = self.locate(key);
+        SceneError::Key { file, key, line, message: message.into() }
     }
 
     pub(crate) fn missing_file(&self, key: &str, missing: &Path) -> SceneError {
-        SceneError::MissingFile {
-            file: self.file.clone(),
-            key: key.to_string(),
-            line: self.spans.line_of(key),
-            missing: missing.to_path_buf(),
-        }
+        let (file, key, line) = self.locate(key);
+        SceneError::MissingFile { file, key, line, missing: missing.to_path_buf() }
     }
 
     pub(crate) fn asset_error(&self, key: &str, asset: &Path, message: impl Into<String>) -> SceneError {
-        SceneError::Asset {
-            file: self.file.clone(),
-            key: key.to_string(),
-            line: self.spans.line_of(key),
-            asset: asset.to_path_buf(),
-            message: message.into(),
-        }
+        let (file, key, line) = self.locate(key);
+        SceneError::Asset { file, key, line, asset: asset.to_path_buf(), message: message.into() }
     }
 
     /// Converts an error of the typed deserialiser: its span names the key, its message the problem.
     pub(crate) fn toml_error(&self, error: &toml::de::Error) -> SceneError {
         let span: Option<Range<usize>> = error.span();
         let key = span.as_ref().and_then(|s| self.spans.path_at(s)).unwrap_or_default();
-        let line = span.as_ref().map(|s| self.spans.line_col(s.start).0);
-        SceneError::Key {
-            file: self.file.clone(),
-            key,
-            line,
-            message: error.message().trim().to_string(),
+        let message = error.message().trim().to_string();
+        if self.places.is_some() {
+            return self.key_error(&key, message);
         }
+        let line = span.as_ref().map(|s| self.spans.line_col(s.start).0);
+        SceneError::Key { file: self.file.clone(), key, line, message }
     }
 
     /// Converts a syntax error of the TOML parser.

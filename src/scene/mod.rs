@@ -21,6 +21,7 @@
 //! type = "perspective"         # the only type, may be omitted
 //! fov = 39.3077                # degrees, required, in (0, 180)
 //! fov_axis = "smaller"         # x (default) | y | diagonal | smaller | larger
+//! # near_clip, far_clip        (Mitsuba's; accepted only where they clip nothing, see `clip`)
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 256, 128] }   # default 768×576; crop optional
 //!
@@ -83,6 +84,7 @@
 //! cannot hold it there; the error states the limit).
 
 mod build;
+mod clip;
 mod desc;
 mod error;
 mod interaction;
@@ -92,7 +94,9 @@ pub mod settings;
 mod spans;
 mod transform;
 mod validate;
+mod xml;
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
@@ -127,13 +131,31 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Reads and builds the scene file at `path`; file names inside are relative to its directory.
+    /// Reads and builds the scene file at `path`: Mitsuba 3 XML when its name ends in `.xml` (any case),
+    /// TOML otherwise; file names inside are relative to its directory.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Self::load_with_params(path, &BTreeMap::new())
+    }
+
+    /// [`Scene::load`] with values for the scene's parameters (`$name` in Mitsuba XML; Mitsuba's `-D
+    /// name=value`). TOML scenes have no parameters: giving any is an error.
+    pub fn load_with_params(path: &Path, params: &BTreeMap<String, String>) -> Result<Scene, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             file: path.to_path_buf(),
             source,
         })?;
         let base_dir = path.parent().unwrap_or_else(|| Path::new("."));
+        if is_xml(path) {
+            return Self::from_xml_str(&text, base_dir, path, params);
+        }
+        if let Some(name) = params.keys().next() {
+            return Err(SceneError::Key {
+                file: path.to_path_buf(),
+                key: format!("-D {name}"),
+                line: None,
+                message: "scene parameters apply to Mitsuba XML scenes (.xml) only".into(),
+            });
+        }
         Self::from_toml_str(&text, base_dir, path)
     }
 
@@ -141,6 +163,18 @@ impl Scene {
     /// text in errors (and becomes `Scene::path`).
     pub fn from_toml_str(text: &str, base_dir: &Path, name_for_errors: &Path) -> Result<Scene, SceneError> {
         build::build_scene(text, base_dir, name_for_errors)
+    }
+
+    /// Builds a scene from Mitsuba 3 XML text (module `xml`), with values for its parameters; `base_dir`
+    /// resolves relative file names and includes, `name_for_errors` names the text in errors.
+    pub fn from_xml_str(
+        text: &str,
+        base_dir: &Path,
+        name_for_errors: &Path,
+        params: &BTreeMap<String, String>,
+    ) -> Result<Scene, SceneError> {
+        let (description, places) = xml::read_str(text, name_for_errors, base_dir, params)?;
+        build::build_xml_scene(&description, places, base_dir, name_for_errors)
     }
 
     /// Whether any material in use has a delta lobe (else no caustic paths exist and a photon pass is useless).
@@ -168,4 +202,10 @@ impl Scene {
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count()
     }
+}
+
+/// Whether `path` names a Mitsuba XML scene (extension `.xml`, any case).
+#[must_use]
+pub fn is_xml(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
 }

@@ -162,6 +162,7 @@ mod tests {
         let ctx = ErrorContext {
             file: "t.toml".into(),
             spans: SpanIndex::new(&text),
+            places: None,
         };
         let file: SceneFile = toml::from_str(&text).map_err(|e| ctx.toml_error(&e))?;
         to_world_matrix(&ctx, "sensor.to_world", file.sensor.to_world.as_ref())

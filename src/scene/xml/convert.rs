@@ -1,0 +1,472 @@
+//! The element tree (includes resolved, parameters substituted) → the scene description as a TOML
+//! table, the same one a TOML scene file deserialises from (`desc`), plus the place of every key.
+//!
+//! Properties keep their Mitsuba names, which are the description's keys; the deserialiser then rejects
+//! unknown properties and wrong value types (`deny_unknown_fields`), and the builder checks ranges and
+//! which keys apply to which type, all reported at the XML element through [`Places`]. Only the
+//! structure is translated here: nested plugins, `<ref>`, `id`s, transforms, the film's crop window, the
+//! sampler (→ `integrator.samples_per_pixel`/`seed`) and the `caustics_*` extension properties.
+
+use std::collections::HashMap;
+
+use toml::{Table, Value};
+
+use super::places::{Place, Places};
+use super::tree::Element;
+use super::values::{self, float_array, numbers, numbers_n, xyz, PROPERTY_TAGS};
+use super::super::desc::FilmDesc;
+use super::super::error::SceneError;
+use super::super::spans::{join_index, join_key};
+
+/// Mitsuba's sampler types: caustica uses its own deterministic sampler for each (the expected image
+/// does not depend on the sampling pattern).
+const SAMPLER_TYPES: &[&str] = &["independent", "stratified", "multijitter", "orthogonal", "ldsampler"];
+
+/// Prefix of the integrator properties that set `[integrator.caustics]` (caustica's extension).
+pub(crate) const CAUSTICS_PREFIX: &str = "caustics_";
+
+/// The attributes of a plugin element.
+const PLUGIN_ATTRS: &[&str] = &["type", "id", "name"];
+
+/// The scene description and the places of its keys.
+pub(crate) fn convert(root: &Element) -> Result<(Table, Places), SceneError> {
+    let mut c = Converter {
+        places: Places::new(root),
+        ids: HashMap::new(),
+        named_bsdfs: Table::new(),
+        integrator: Table::new(),
+        sensor: None,
+        shapes: Vec::new(),
+        emitters: Vec::new(),
+        integrator_seen: false,
+        sampler_seen: false,
+    };
+    c.collect_ids(root)?;
+    for el in &root.children {
+        match el.tag.as_str() {
+            "integrator" => c.integrator(el)?,
+            "sensor" => c.sensor(el)?,
+            "bsdf" => {
+                let name = el.attr("id").map_or_else(|| format!("bsdf_line_{}", el.line), str::to_string);
+                c.named_bsdf(el, &name)?;
+            }
+            "shape" => c.shape(el)?,
+            "emitter" => c.emitter(el)?,
+            _ => return Err(unsupported(el, root)),
+        }
+    }
+    let mut doc = Table::new();
+    if !c.integrator.is_empty() {
+        doc.insert("integrator".into(), Value::Table(c.integrator));
+    }
+    if let Some(sensor) = c.sensor {
+        doc.insert("sensor".into(), Value::Table(sensor));
+    }
+    if !c.named_bsdfs.is_empty() {
+        doc.insert("bsdf".into(), Value::Table(c.named_bsdfs));
+    }
+    if !c.shapes.is_empty() {
+        doc.insert("shape".into(), Value::Array(c.shapes));
+    }
+    if !c.emitters.is_empty() {
+        doc.insert("emitter".into(), Value::Array(c.emitters));
+    }
+    Ok((doc, c.places))
+}
+
+fn unsupported(el: &Element, parent: &Element) -> SceneError {
+    el.error(format!("<{}> is not supported inside {}", el.tag, parent.label()))
+}
+
+struct Converter {
+    places: Places,
+    /// The tag of every element with an `id`.
+    ids: HashMap<String, String>,
+    named_bsdfs: Table,
+    integrator: Table,
+    sensor: Option<Table>,
+    shapes: Vec<Value>,
+    emitters: Vec<Value>,
+    integrator_seen: bool,
+    sampler_seen: bool,
+}
+
+impl Converter {
+    fn collect_ids(&mut self, el: &Element) -> Result<(), SceneError> {
+        for child in &el.children {
+            if child.tag != "ref" {
+                if let Some(id) = child.attr("id") {
+                    if self.ids.insert(id.to_string(), child.tag.clone()).is_some() {
+                        return Err(child.error(format!("id {id:?} is used twice")));
+                    }
+                }
+            }
+            self.collect_ids(child)?;
+        }
+        Ok(())
+    }
+
+    /// Inserts property `name` = `value` into `table` (at key path `key`), written by `child` of `plugin`.
+    fn put(&mut self, table: &mut Table, key: &str, plugin: &Element, child: &Element, name: &str, value: Value) -> Result<(), SceneError> {
+        if table.contains_key(name) {
+            return Err(child.error(format!("property \"{name}\" of {} is given twice", plugin.label())));
+        }
+        self.places.insert(&join_key(key, name), Place::property(plugin, child, name));
+        table.insert(name.to_string(), value);
+        Ok(())
+    }
+
+    /// A property element or a `<transform>` of `plugin` → `table`; `Ok(false)` for other elements.
+    fn property_or_transform(&mut self, plugin: &Element, child: &Element, key: &str, table: &mut Table) -> Result<bool, SceneError> {
+        if PROPERTY_TAGS.contains(&child.tag.as_str()) {
+            let name = child.required("name")?;
+            let value = values::property_value(child)?;
+            self.put(table, key, plugin, child, name, value)?;
+            Ok(true)
+        } else if child.tag == "transform" {
+            let name = child.required("name")?;
+            let value = self.transform(child, &join_key(key, name))?;
+            self.put(table, key, plugin, child, name, value)?;
+            Ok(true)
+        } else {
+            Ok(false)
+        }
+    }
+
+    /// A new plugin table with its `type`.
+    fn plugin_table(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
+        el.check_attrs(PLUGIN_ATTRS)?;
+        let kind = el.required("type")?;
+        self.places.insert(key, Place::plugin(el));
+        self.places.insert(&join_key(key, "type"), Place::plugin(el));
+        let mut t = Table::new();
+        t.insert("type".into(), Value::String(kind.to_string()));
+        Ok(t)
+    }
+
+    fn integrator(&mut self, el: &Element) -> Result<(), SceneError> {
+        if std::mem::replace(&mut self.integrator_seen, true) {
+            return Err(el.error("a second <integrator>"));
+        }
+        el.check_attrs(PLUGIN_ATTRS)?;
+        let kind = el.required("type")?;
+        if kind != "path" {
+            return Err(el.error(format!(
+                "integrator type {kind:?} is not supported: caustica renders with \"path\" (its caustic photon map is set with the caustics_* properties)"
+            )));
+        }
+        self.places.insert("integrator", Place::plugin(el));
+        let mut table = std::mem::take(&mut self.integrator);
+        let mut caustics = Table::new();
+        for child in &el.children {
+            if !PROPERTY_TAGS.contains(&child.tag.as_str()) {
+                return Err(unsupported(child, el));
+            }
+            let name = child.required("name")?;
+            let value = values::property_value(child)?;
+            if let Some(rest) = name.strip_prefix(CAUSTICS_PREFIX) {
+                self.places.insert("integrator.caustics", Place::plugin(el));
+                self.put(&mut caustics, "integrator.caustics", el, child, rest, value)?;
+                // The error names the XML property, not the description's key.
+                self.places.insert(&join_key("integrator.caustics", rest), Place::property(el, child, name));
+            } else if matches!(name, "samples_per_pixel" | "seed" | "caustics") {
+                return Err(child.error(format!(
+                    "unknown property \"{name}\" of {} (the sample count and seed are the <sampler>'s sample_count and seed)",
+                    el.label()
+                )));
+            } else {
+                self.put(&mut table, "integrator", el, child, name, value)?;
+            }
+        }
+        if !caustics.is_empty() {
+            table.insert("caustics".into(), Value::Table(caustics));
+        }
+        self.integrator = table;
+        Ok(())
+    }
+
+    fn sensor(&mut self, el: &Element) -> Result<(), SceneError> {
+        if self.sensor.is_some() {
+            return Err(el.error("a second <sensor> (caustica renders one camera)"));
+        }
+        let key = "sensor";
+        let mut table = self.plugin_table(el, key)?;
+        let mut film_seen = false;
+        for child in &el.children {
+            if self.property_or_transform(el, child, key, &mut table)? {
+                continue;
+            }
+            match child.tag.as_str() {
+                "film" if !film_seen => {
+                    film_seen = true;
+                    let film = self.film(child)?;
+                    table.insert("film".into(), Value::Table(film));
+                }
+                "sampler" => self.sampler(child)?,
+                _ => return Err(unsupported(child, el)),
+            }
+        }
+        self.sensor = Some(table);
+        Ok(())
+    }
+
+    fn film(&mut self, el: &Element) -> Result<Table, SceneError> {
+        let key = "sensor.film";
+        el.check_attrs(PLUGIN_ATTRS)?;
+        let kind = el.required("type")?;
+        if kind != "hdrfilm" {
+            return Err(el.error(format!("film type {kind:?} is not supported (only \"hdrfilm\")")));
+        }
+        self.places.insert(key, Place::plugin(el));
+        let mut table = Table::new();
+        let mut crop: [Option<(i64, &Element)>; 4] = [None; 4];
+        const CROP: [&str; 4] = ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"];
+        let mut rfilter_seen = false;
+        for child in &el.children {
+            if child.tag == "rfilter" && !rfilter_seen {
+                rfilter_seen = true;
+                rfilter(child)?;
+                continue;
+            }
+            let name = child.attr("name").unwrap_or_default();
+            if let Some(i) = CROP.iter().position(|c| *c == name) {
+                let Value::Integer(v) = values::property_value(child)? else {
+                    return Err(child.error(format!("{name} must be an <integer>")));
+                };
+                if crop[i].replace((v, child)).is_some() {
+                    return Err(child.error(format!("property \"{name}\" of {} is given twice", el.label())));
+                }
+                continue;
+            }
+            if !self.property_or_transform(el, child, key, &mut table)? {
+                return Err(unsupported(child, el));
+            }
+        }
+        if let Some((_, first)) = crop.iter().flatten().next() {
+            let defaults = FilmDesc::default();
+            let size = |name: &str, default: u32| match table.get(name) {
+                Some(Value::Integer(v)) => *v,
+                _ => i64::from(default),
+            };
+            let (w, h) = (size("width", defaults.width), size("height", defaults.height));
+            let get = |i: usize, default: i64| crop[i].map_or(default, |(v, _)| v);
+            let (x0, y0) = (get(0, 0), get(1, 0));
+            let (x1, y1) = (x0.saturating_add(get(2, w - x0)), y0.saturating_add(get(3, h - y0)));
+            let name = first.attr("name").unwrap_or_default();
+            self.places.insert(&join_key(key, "crop"), Place::property(el, first, name));
+            table.insert("crop".into(), Value::Array([x0, y0, x1, y1].map(Value::Integer).to_vec()));
+        }
+        Ok(table)
+    }
+
+    fn sampler(&mut self, el: &Element) -> Result<(), SceneError> {
+        if std::mem::replace(&mut self.sampler_seen, true) {
+            return Err(el.error("a second <sampler>"));
+        }
+        el.check_attrs(PLUGIN_ATTRS)?;
+        let kind = el.required("type")?;
+        if !SAMPLER_TYPES.contains(&kind) {
+            return Err(el.error(format!("sampler type {kind:?} is not supported (one of {})", SAMPLER_TYPES.join(", "))));
+        }
+        let mut table = std::mem::take(&mut self.integrator);
+        for child in &el.children {
+            if !PROPERTY_TAGS.contains(&child.tag.as_str()) {
+                return Err(unsupported(child, el));
+            }
+            let name = child.required("name")?;
+            let target = match name {
+                "sample_count" => "samples_per_pixel",
+                "seed" => "seed",
+                _ => {
+                    return Err(child.error(format!(
+                        "unknown property \"{name}\" of {} (caustica reads sample_count and seed)",
+                        el.label()
+                    )))
+                }
+            };
+            let value = values::property_value(child)?;
+            self.put(&mut table, "integrator", el, child, target, value)?;
+            self.places.insert(&join_key("integrator", target), Place::property(el, child, name));
+        }
+        self.integrator = table;
+        Ok(())
+    }
+
+    /// A `<bsdf>` with an `id` (at the top level or nested) becomes the named bsdf `bsdf.<id>`.
+    fn named_bsdf(&mut self, el: &Element, name: &str) -> Result<(), SceneError> {
+        if self.named_bsdfs.contains_key(name) {
+            return Err(el.error(format!("a second bsdf named {name:?}")));
+        }
+        let key = join_key("bsdf", name);
+        let table = self.bsdf_table(el, &key)?;
+        self.named_bsdfs.insert(name.to_string(), Value::Table(table));
+        Ok(())
+    }
+
+    /// A nested `<bsdf>` or `<ref>` at key path `key`: an inline table, or the name of a named bsdf.
+    fn bsdf_value(&mut self, el: &Element, key: &str) -> Result<Value, SceneError> {
+        self.places.insert(key, Place::plugin(el));
+        if el.tag == "ref" {
+            el.check_attrs(&["id", "name"])?;
+            let id = el.required("id")?;
+            return match self.ids.get(id).map(String::as_str) {
+                Some("bsdf") => Ok(Value::String(id.to_string())),
+                Some(tag) => Err(el.error(format!("refers to a <{tag}>; only BSDFs can be referenced here"))),
+                None => Err(el.error(format!("no element has id {id:?}"))),
+            };
+        }
+        if let Some(id) = el.attr("id") {
+            self.named_bsdf(el, id)?;
+            return Ok(Value::String(id.to_string()));
+        }
+        Ok(Value::Table(self.bsdf_table(el, key)?))
+    }
+
+    fn bsdf_table(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
+        let mut table = self.plugin_table(el, key)?;
+        let nested: &[&str] = match el.attr("type") {
+            Some("twosided") => &["bsdf"],
+            Some("blendbsdf") => &["bsdf_0", "bsdf_1"],
+            _ => &[],
+        };
+        let mut n = 0;
+        for child in &el.children {
+            if self.property_or_transform(el, child, key, &mut table)? {
+                continue;
+            }
+            if !matches!(child.tag.as_str(), "bsdf" | "ref") {
+                return Err(unsupported(child, el));
+            }
+            let Some(slot) = nested.get(n) else {
+                let msg = match nested.len() {
+                    0 => format!("{} has no nested BSDF", el.label()),
+                    1 => format!("{} takes one nested BSDF (different BSDFs on the two sides are not supported)", el.label()),
+                    k => format!("{} takes {k} nested BSDFs", el.label()),
+                };
+                return Err(child.error(msg));
+            };
+            n += 1;
+            let value = self.bsdf_value(child, &join_key(key, slot))?;
+            table.insert((*slot).to_string(), value);
+        }
+        Ok(table)
+    }
+
+    fn shape(&mut self, el: &Element) -> Result<(), SceneError> {
+        let key = join_index("shape", self.shapes.len());
+        let mut table = self.plugin_table(el, &key)?;
+        for child in &el.children {
+            if self.property_or_transform(el, child, &key, &mut table)? {
+                continue;
+            }
+            let slot = match child.tag.as_str() {
+                "bsdf" | "ref" => "bsdf",
+                "emitter" => "emitter",
+                _ => return Err(unsupported(child, el)),
+            };
+            if table.contains_key(slot) {
+                return Err(child.error(format!("{} has a second {slot}", el.label())));
+            }
+            let slot_key = join_key(&key, slot);
+            let value = if slot == "bsdf" {
+                self.bsdf_value(child, &slot_key)?
+            } else {
+                Value::Table(self.leaf_plugin(child, &slot_key)?)
+            };
+            table.insert(slot.into(), value);
+        }
+        self.shapes.push(Value::Table(table));
+        Ok(())
+    }
+
+    fn emitter(&mut self, el: &Element) -> Result<(), SceneError> {
+        let key = join_index("emitter", self.emitters.len());
+        let table = self.leaf_plugin(el, &key)?;
+        self.emitters.push(Value::Table(table));
+        Ok(())
+    }
+
+    /// A plugin with properties and transforms but no nested plugins (emitters).
+    fn leaf_plugin(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
+        let mut table = self.plugin_table(el, key)?;
+        for child in &el.children {
+            if !self.property_or_transform(el, child, key, &mut table)? {
+                return Err(unsupported(child, el));
+            }
+        }
+        Ok(table)
+    }
+
+    /// `<transform>`: its operations in the order written (the first is applied first, as `to_world`
+    /// lists in the description).
+    fn transform(&mut self, el: &Element, key: &str) -> Result<Value, SceneError> {
+        el.check_attrs(&["name"])?;
+        let mut ops = Vec::new();
+        for (i, op) in el.children.iter().enumerate() {
+            let op_key = join_index(key, i);
+            self.places.insert(&op_key, Place::plugin(op));
+            let mut t = Table::new();
+            match op.tag.as_str() {
+                "translate" => {
+                    op.check_attrs(&["x", "y", "z", "value"])?;
+                    t.insert("translate".into(), float_array(&xyz(op, 0.0)?));
+                }
+                "rotate" => {
+                    op.check_attrs(&["x", "y", "z", "value", "angle"])?;
+                    let mut r = Table::new();
+                    r.insert("axis".into(), float_array(&xyz(op, 0.0)?));
+                    r.insert("angle".into(), Value::Float(numbers_n(op, "angle", 1)?[0]));
+                    t.insert("rotate".into(), Value::Table(r));
+                }
+                "scale" => {
+                    op.check_attrs(&["x", "y", "z", "value"])?;
+                    let s = match op.attr("value") {
+                        Some(v) if numbers(op, "value", v)?.len() == 1 && ["x", "y", "z"].iter().all(|a| op.attr(a).is_none()) => {
+                            let s = numbers(op, "value", v)?[0];
+                            [s, s, s]
+                        }
+                        _ => xyz(op, 1.0)?,
+                    };
+                    t.insert("scale".into(), float_array(&s));
+                }
+                "matrix" => {
+                    op.check_attrs(&["value"])?;
+                    let v = numbers(op, "value", op.required("value")?)?;
+                    let m = match v.len() {
+                        16 => v,
+                        // A 3×3 matrix: the linear part, no translation.
+                        9 => vec![v[0], v[1], v[2], 0.0, v[3], v[4], v[5], 0.0, v[6], v[7], v[8], 0.0, 0.0, 0.0, 0.0, 1.0],
+                        n => return Err(op.error(format!("a matrix needs 16 (or 9) numbers, got {n}"))),
+                    };
+                    t.insert("matrix".into(), float_array(&m));
+                }
+                "lookat" => {
+                    op.check_attrs(&["origin", "target", "up"])?;
+                    let mut l = Table::new();
+                    for a in ["origin", "target", "up"] {
+                        l.insert(a.into(), float_array(&numbers_n(op, a, 3)?));
+                    }
+                    t.insert("look_at".into(), Value::Table(l));
+                }
+                _ => return Err(unsupported(op, el)),
+            }
+            ops.push(Value::Table(t));
+        }
+        Ok(Value::Array(ops))
+    }
+}
+
+/// `<rfilter>`: only the box filter, which is how caustica reconstructs pixels.
+fn rfilter(el: &Element) -> Result<(), SceneError> {
+    el.check_attrs(PLUGIN_ATTRS)?;
+    let kind = el.required("type")?;
+    if kind != "box" {
+        return Err(el.error(format!(
+            "reconstruction filter {kind:?} is not supported: caustica reconstructs pixels with the box filter (type=\"box\")"
+        )));
+    }
+    if let Some(child) = el.children.first() {
+        return Err(child.error(format!("{} has no properties", el.label())));
+    }
+    Ok(())
+}

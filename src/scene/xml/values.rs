@@ -1,0 +1,93 @@
+//! Property elements (`<float name="alpha" value="0.1"/>`, `<rgb …>`, `<point …>`, ...) → TOML values of
+//! the scene description. Lists of numbers are separated by commas and/or spaces, as in Mitsuba.
+
+use toml::Value;
+
+use super::tree::Element;
+use super::super::error::SceneError;
+
+/// The tags of property elements.
+pub(crate) const PROPERTY_TAGS: &[&str] = &["float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector"];
+
+/// The numbers of a list such as `"0.8, 0.1 0.1"`.
+pub(crate) fn numbers(el: &Element, attr: &str, text: &str) -> Result<Vec<f64>, SceneError> {
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<f64>().map_err(|_| el.error(format!("attribute `{attr}`: {s:?} is not a number"))))
+        .collect()
+}
+
+/// Exactly `n` numbers in attribute `attr`.
+pub(crate) fn numbers_n(el: &Element, attr: &str, n: usize) -> Result<Vec<f64>, SceneError> {
+    let v = numbers(el, attr, el.required(attr)?)?;
+    if v.len() == n {
+        Ok(v)
+    } else {
+        Err(el.error(format!("attribute `{attr}` needs {n} numbers, got {}", v.len())))
+    }
+}
+
+/// One number in attribute `attr`, or `default` when the attribute is absent.
+pub(crate) fn number_or(el: &Element, attr: &str, default: f64) -> Result<f64, SceneError> {
+    match el.attr(attr) {
+        None => Ok(default),
+        Some(_) => Ok(numbers_n(el, attr, 1)?[0]),
+    }
+}
+
+/// `[x, y, z]` from the attributes `x`, `y`, `z` (each defaulting to `default`) or from `value`.
+pub(crate) fn xyz(el: &Element, default: f64) -> Result<[f64; 3], SceneError> {
+    if el.attr("value").is_some() {
+        if ["x", "y", "z"].iter().any(|a| el.attr(a).is_some()) {
+            return Err(el.error("give either `value` or `x`, `y`, `z`, not both"));
+        }
+        let v = numbers_n(el, "value", 3)?;
+        return Ok([v[0], v[1], v[2]]);
+    }
+    Ok([number_or(el, "x", default)?, number_or(el, "y", default)?, number_or(el, "z", default)?])
+}
+
+pub(crate) fn float_array(v: &[f64]) -> Value {
+    Value::Array(v.iter().map(|&x| Value::Float(x)).collect())
+}
+
+/// The value of a property element (its tag is one of [`PROPERTY_TAGS`]).
+pub(crate) fn property_value(el: &Element) -> Result<Value, SceneError> {
+    let point = matches!(el.tag.as_str(), "point" | "vector");
+    el.check_attrs(if point { &["name", "value", "x", "y", "z"] } else { &["name", "value"] })?;
+    if point {
+        return Ok(float_array(&xyz(el, 0.0)?));
+    }
+    let text = el.required("value")?.trim();
+    Ok(match el.tag.as_str() {
+        "float" => Value::Float(numbers_n(el, "value", 1)?[0]),
+        "integer" => Value::Integer(
+            text.parse::<i64>().map_err(|_| el.error(format!("attribute `value`: {text:?} is not an integer")))?,
+        ),
+        "boolean" => Value::Boolean(match text {
+            "true" => true,
+            "false" => false,
+            _ => return Err(el.error(format!("attribute `value`: {text:?} is not true or false"))),
+        }),
+        "string" => Value::String(text.to_string()),
+        "rgb" => {
+            let v = numbers(el, "value", text)?;
+            match v.len() {
+                1 => Value::Float(v[0]),
+                3 => float_array(&v),
+                n => return Err(el.error(format!("an rgb value needs 1 or 3 numbers, got {n}"))),
+            }
+        }
+        "spectrum" => {
+            if text.contains(':') {
+                return Err(el.error("only single-valued spectra (`value=\"0.5\"`) are supported; write wavelength-dependent values as <rgb>"));
+            }
+            let v = numbers(el, "value", text)?;
+            match v.as_slice() {
+                [x] => Value::Float(*x),
+                _ => return Err(el.error("only single-valued spectra (`value=\"0.5\"`) are supported; write wavelength-dependent values as <rgb>")),
+            }
+        }
+        _ => return Err(el.error("not a property element")),
+    })
+}
