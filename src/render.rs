@@ -159,13 +159,33 @@ pub struct RenderPhaseStats {
     pub passes_rendered: u32,
     pub partial: bool,
     /// Serialised as an object `{phase: reason}`, the one form of every stats JSON.
-    #[serde(serialize_with = "skipped_as_map")]
+    #[serde(serialize_with = "skipped_as_map", deserialize_with = "skipped_from_map")]
     pub skipped: Vec<SkippedPhase>,
 }
 
 /// `[{phase, reason}]` as `{phase: reason}`.
 fn skipped_as_map<S: serde::Serializer>(skipped: &[SkippedPhase], serializer: S) -> Result<S::Ok, S::Error> {
     serializer.collect_map(skipped.iter().map(|s| (&s.phase, &s.reason)))
+}
+
+/// `{phase: reason}` back to `[{phase, reason}]` (a part file's stats are read by `merge`), in the order
+/// written.
+fn skipped_from_map<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Vec<SkippedPhase>, D::Error> {
+    struct Visitor;
+    impl<'de> serde::de::Visitor<'de> for Visitor {
+        type Value = Vec<SkippedPhase>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an object {phase: reason}")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut v = Vec::new();
+            while let Some((phase, reason)) = map.next_entry::<String, String>()? {
+                v.push(SkippedPhase { phase, reason });
+            }
+            Ok(v)
+        }
+    }
+    deserializer.deserialize_map(Visitor)
 }
 
 /// Which passes and tiles one process renders: all of them, or one part's share (see [`part`]).
@@ -421,6 +441,18 @@ pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The stats' `skipped` is an object in JSON, and reads back (a part file carries its stats to `merge`).
+    #[test]
+    fn phase_stats_round_trip_through_json_with_skipped_phases() {
+        let mut stats = RenderPhaseStats { spp: 3, ..RenderPhaseStats::default() };
+        stats.skipped.push(SkippedPhase { phase: "caustic photon pass".into(), reason: "no delta surface".into() });
+        stats.skipped.push(SkippedPhase { phase: "environment importance sampling".into(), reason: "no env map".into() });
+        let json = serde_json::to_string(&stats).unwrap();
+        assert!(json.contains(r#""skipped":{"caustic photon pass":"no delta surface","#), "{json}");
+        let back: RenderPhaseStats = serde_json::from_str(&json).unwrap();
+        assert_eq!(serde_json::to_string(&back).unwrap(), json);
+    }
 
     /// The schedule of method.md §6: s₀ = 1, strictly decreasing, and the rate of Knaus & Zwicker's
     /// recursion r²ᵢ₊₁ = r²ᵢ·(i + a)/(i + 1): the ratio of the two tends to the constant Γ(1 + a).
