@@ -30,8 +30,10 @@ pub enum FovAxis {
     Larger,
 }
 
-/// Largest accepted film (2^26 pixels, e.g. 8192 × 8192): beyond it the film's buffers would not fit in memory.
-pub const MAX_FILM_PIXELS: u64 = 1 << 26;
+/// Largest accepted film: 2³¹ pixels (e.g. 46340 × 46340), so that a pixel's index fits in 31 bits wherever
+/// it is computed. Whether the film fits in memory is a separate check (`render::memory`), made against the
+/// machine's memory before the render starts.
+pub const MAX_FILM_PIXELS: u64 = 1 << 31;
 
 /// Invalid camera parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

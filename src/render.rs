@@ -16,6 +16,7 @@
 //! passes still advance the sample index, so every (pass, tile) it renders is the one the whole render
 //! would, and the film's exact sums make the parts add up to the whole bit for bit.
 
+pub mod memory;
 pub mod part;
 
 use std::sync::atomic::{AtomicBool, Ordering};

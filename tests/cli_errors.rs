@@ -244,3 +244,19 @@ fn several_scenes_in_one_render_call() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(dir.join("a.exr").is_file() && dir.join("b.exr").is_file());
 }
+
+#[test]
+fn renders_beyond_memory_are_refused_before_allocating() {
+    let dir = case_dir("memory");
+    write(&dir, "good.toml", GOOD_SCENE);
+    // 4·10⁹ photons a pass: a 141 GB photon map.
+    expect_error(&dir, &["render", "good.toml", "-q", "--estimator", "mis", "--photons", "4000000000", "--memory-limit", "24"], &["good.toml", "photon map 140.80 GB", "24.00 GB", "the memory limit given"]);
+    // A 40000 × 40000 film (136 B a pixel: 218 GB), with the machine's memory as the limit.
+    let msg = expect_error(&dir, &["render", "good.toml", "-q", "--width", "40000", "--height", "40000"], &["good.toml", "film 217.60 GB", "--memory-limit"]);
+    assert!(msg.contains("physical memory"), "{msg}");
+    // The same check in converge (its mis run), and a limit too small for the little scene itself.
+    expect_error(&dir, &["converge", "good.toml", "--reference", "missing.exr", "--time-budget", "1", "--memory-limit", "1e-9", "-o", "conv"], &["good.toml", "the memory limit given"]);
+    expect_error(&dir, &["render", "good.toml", "-q", "--memory-limit", "-1"], &["--memory-limit"]);
+    // The film of 100000 × 100000 is beyond the pixel-index limit, refused by the camera.
+    expect_error(&dir, &["render", "good.toml", "-q", "--width", "100000", "--height", "100000"], &["too large"]);
+}

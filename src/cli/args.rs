@@ -116,6 +116,18 @@ pub struct RunArgs {
     /// Film height in pixels; alone, the width follows the scene's aspect ratio [default: the scene's].
     #[arg(long, value_parser = resolution)]
     pub height: Option<u32>,
+    /// Refuse a render whose film, photon map and mesh need more than this many GB [default: the
+    /// machine's physical memory].
+    #[arg(long, value_name = "GB", value_parser = gigabytes)]
+    pub memory_limit: Option<f64>,
+}
+
+/// Parses `--memory-limit GB`: a positive, finite number of gigabytes (10⁹ bytes).
+fn gigabytes(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?}: expected a positive number of gigabytes")),
+    }
 }
 
 impl RunArgs {
@@ -129,6 +141,20 @@ impl RunArgs {
     #[must_use]
     pub fn backend(&self) -> BackendKind {
         self.backend.unwrap_or_else(BackendKind::default_available)
+    }
+
+    /// Refuses, before anything is allocated, a render needing more memory than `--memory-limit` (or the
+    /// machine's physical memory): [`crate::render::memory`].
+    pub fn check_memory(&self, scene: &crate::scene::Scene, settings: &crate::render::RenderSettings) -> anyhow::Result<()> {
+        use crate::render::memory::{MemoryEstimate, MemoryLimit};
+        let limit = match self.memory_limit {
+            Some(gb) => Some(MemoryLimit { bytes: (gb * 1e9) as u64, physical: false }),
+            None => MemoryLimit::physical(),
+        };
+        if let Some(limit) = limit {
+            MemoryEstimate::of(scene, settings).check(limit).map_err(|e| anyhow::anyhow!("{}: {e}", scene.path.display()))?;
+        }
+        Ok(())
     }
 
     /// A rayon pool of [`RunArgs::threads`] workers.

@@ -122,9 +122,11 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
     let mut scene = Scene::load(&args.scene)?;
     args.run.set_resolution(&mut scene)?;
     let (width, height) = (scene.camera.crop().width(), scene.camera.crop().height());
+    let base = base_settings(args, &scene);
+    // The largest of the three renders: one with a photon map.
+    args.run.check_memory(&scene, &RenderSettings { estimator: Estimator::Mis, ..base.clone() })?;
     let template = ErrorTracker::load(&args.reference, &args.regions)?;
     check(args, &template, width, height)?;
-    let base = base_settings(args, &scene);
     let threads = args.run.threads();
     let backend = args.run.backend();
     std::fs::create_dir_all(&args.output).with_context(|| format!("-o {}: cannot create the directory", args.output.display()))?;

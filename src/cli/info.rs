@@ -7,10 +7,10 @@ use std::path::PathBuf;
 
 use super::Outcome;
 use crate::bsdf::Bsdf;
-use crate::film::PixelSum;
 use crate::light::Light;
 use crate::math::Vec3;
-use crate::photon::{Photon, PhotonBudget};
+use crate::photon::PhotonBudget;
+use crate::render::memory::MemoryEstimate;
 use crate::render::{photon_pass_needed, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
@@ -122,28 +122,14 @@ fn describe_budget(b: PhotonBudget) -> String {
     }
 }
 
-/// The largest allocations of a render: the triangle soup with its per-vertex normals and uvs and
-/// per-triangle material and flag, the film (one [`PixelSum`] per pixel of the crop window), and the
-/// photon map of one pass (at most one stored [`Photon`] per emitted photon, plus ~10% for kd-tree
-/// nodes; with a stored target, the target). The intersection backend's own structure is not counted.
+/// The render's memory estimate ([`MemoryEstimate`], whose docs say what it counts).
 fn memory(scene: &Scene, settings: &RenderSettings) -> String {
-    let m = &scene.mesh;
-    let vertex = std::mem::size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
-    let mesh = m.positions.len() as u64 * vertex + m.indices.len() as u64 * (12 + 4 + 1);
-    let film = scene.camera.crop().area() * std::mem::size_of::<PixelSum>() as u64;
-    let photons = if photon_pass_needed(scene, settings.estimator).is_ok() {
-        let n = match settings.photons {
-            PhotonBudget::Emitted(n) | PhotonBudget::Stored(n) => n,
-        };
-        n * std::mem::size_of::<Photon>() as u64 * 11 / 10
-    } else {
-        0
-    };
+    let m = MemoryEstimate::of(scene, settings);
     format!(
         "about {} (mesh {}, film {}, photon map {}; the intersection backend's structure comes on top)",
-        mb(mesh + film + photons),
-        mb(mesh),
-        mb(film),
-        mb(photons)
+        mb(m.total()),
+        mb(m.mesh),
+        mb(m.film),
+        mb(m.photon_map)
     )
 }

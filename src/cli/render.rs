@@ -209,6 +209,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let t_start = Instant::now();
     let scene = load_scene(args, scene_path)?;
     let settings = settings(args, &scene);
+    args.run.check_memory(&scene, &settings)?;
     let tracker = load_reference(args, &scene)?;
     let backend = args.run.backend();
     let threads = args.run.threads();
