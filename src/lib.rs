@@ -27,3 +27,4 @@ pub mod report;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod sys;

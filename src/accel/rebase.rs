@@ -7,13 +7,20 @@
 //! ray tests every triangle of the scene. Measured on `cornell-caustics` inside such a mirror sphere: the
 //! rays reflected by the sphere cost ~1 ms each (the scene's 130k triangles), 3,181 rays in 3.5 s.
 //!
-//! The ray's line is itself only known to that precision (its origin was rounded), so nothing is lost by
-//! tracing the part of it that passes the scene from another point of the same line: the point closest
-//! to the world origin, `o′ = o + t_c·d` with `t_c = −o·d / d·d`, where coordinates are small again (the
-//! loader keeps every shape within 2¹⁴ of its size from the origin, `scene::precision`). A far ray is
-//! traced in two parts: from `o` up to `t_c − h` (`h = |o|/(2|d|)`, so that part stays at least `|o|/2`
-//! from the origin), then from `o′` over the rest, the two overlapping slightly so that rounding at the
-//! seam cannot lose a hit; hits of the second part have `t′ + t_c`.
+//! The ray's line is known exactly (its rounded origin and direction), so its part that passes the scene
+//! can be traced from other points of the same line, computed in f64 and rounded near the scene: the
+//! point closest to the world origin is `o′ = o + t_c·d` with `t_c = −o·d / d·d`, where coordinates are
+//! small again (the loader keeps every shape within 2¹⁴ of its size from the origin, `scene::precision`).
+//! Every backend needs `t ≥ 0` from a ray's origin (Embree asserts it), so the part before `o′` is traced
+//! forward from origins that approach `o′` geometrically: the far ray is traced in segments
+//! `[t_min, t_c − h]` from `o` (`h = |o|/(2|d|)`), then `[t_c − s, t_c − s/2]` from the point at `t_c − s`
+//! for `s = h, h/2, h/4, …` while `s·|d|` exceeds the far distance below, then the rest from the last such
+//! point. Each segment's origin is about as far from `o′` as the segment is long, so its rounding stays
+//! below the segment's length times 2⁻²⁴ and no segment's end passes the scene's detail with a large
+//! error; consecutive segments overlap by a few ulps so that rounding at a seam cannot lose a hit, and the
+//! first segment with a hit has the closest one. A hit's `t` is the segment's plus the segment's start.
+//! A far ray of a sky-sized sphere (|o| ≈ 4e9) is about 20 segments, each a query that mostly misses the
+//! top-level bounds.
 //!
 //! "Far" is relative to the scene's detail: a ray is re-based when its origin's rounding exceeds 1/64 of
 //! the median triangle size (`|o| > 2¹⁸·median diagonal`), which no ray of a scene without far geometry
@@ -33,12 +40,12 @@ pub struct Rebased {
     far: f32,
 }
 
-/// The two parts of a far ray.
-struct Parts {
-    /// `[t_min, a_end]` from the original origin, if not empty.
-    a: Option<Ray>,
-    /// The rest from `o′`, and `t_c` to add to its hits' `t`.
-    b: Option<(Ray, f32)>,
+/// One segment of a far ray: the ray to trace (`t ≥ 0` from its origin) and the `t` of its origin on
+/// the original ray.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    ray: Ray,
+    t_start: f32,
 }
 
 impl Rebased {
@@ -60,53 +67,62 @@ impl Rebased {
         Self { inner, far }
     }
 
-    /// The parts of `ray` if it is far, `None` if it is traced as it is.
-    fn split(&self, ray: &Ray) -> Option<Parts> {
+    /// The segments of `ray` in order along it if it is far (module docs), `None` if it is traced as it is.
+    fn split(&self, ray: &Ray) -> Option<Vec<Segment>> {
         // One multiply-add chain and a compare for every ordinary ray.
         if !(ray.origin.length_squared() > self.far * self.far) {
             return None;
         }
-        let o_len = ray.origin.length();
-        let dd = ray.dir.length_squared();
+        let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+        let dd = d.length_squared();
         if !(dd > 0.0 && dd.is_finite()) {
             return None;
         }
-        let t_c = -ray.origin.dot(ray.dir) / dd;
-        if !(t_c > ray.t_min) {
+        let t_c = -o.dot(d) / dd;
+        let (t_min, t_max) = (f64::from(ray.t_min), f64::from(ray.t_max));
+        if !(t_c > t_min) {
             // Moving away from the origin: the whole ray stays far from the scene's detail.
             return None;
         }
-        let h = 0.5 * o_len / dd.sqrt();
-        // Overlap at the seam: a few ulps of the larger of t_c and h.
-        let seam = 4.0 * f32::EPSILON * (t_c.abs() + h);
-        let t_split = t_c - h;
-        let a = (t_split + seam > ray.t_min).then(|| Ray::segment(ray.origin, ray.dir, ray.t_min, (t_split + seam).min(ray.t_max)));
-        let b_start = (t_split - seam).max(ray.t_min);
-        let b = (b_start < ray.t_max).then(|| {
-            let origin = ray.origin + t_c * ray.dir;
-            (Ray::segment(origin, ray.dir, b_start - t_c, ray.t_max - t_c), t_c)
-        });
-        Some(Parts { a, b })
+        let d_len = dd.sqrt();
+        // Overlap at a seam: a few ulps (of f32, the precision of the backends' t) of the largest t.
+        let seam = 4.0 * f64::from(f32::EPSILON) * (t_c.abs() + o.length() / d_len);
+        let mut segments = Vec::with_capacity(24);
+        let mut push = |start: f64, end: f64| {
+            // `[start, end]` of the original ray, clipped to `[t_min, t_max]`, traced from the point at `start`.
+            let (lo, hi) = (start.max(t_min), (end + seam).min(t_max));
+            if lo < hi {
+                let origin = (o + start * d).as_vec3();
+                segments.push(Segment { ray: Ray::segment(origin, ray.dir, (lo - start) as f32, (hi - start) as f32), t_start: start as f32 });
+            }
+        };
+        let mut s = 0.5 * o.length() / d_len;
+        push(0.0, t_c - s);
+        let near = f64::from(self.far) / d_len;
+        while s > near && t_c - s < t_max {
+            push(t_c - s, t_c - 0.5 * s);
+            s *= 0.5;
+        }
+        if t_c - s < t_max {
+            push(t_c - s, f64::INFINITY);
+        }
+        Some(segments)
     }
 }
 
 impl Accel for Rebased {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let Some(parts) = self.split(ray) else {
+        let Some(segments) = self.split(ray) else {
             return self.inner.intersect(ray);
         };
-        if let Some(hit) = parts.a.and_then(|a| self.inner.intersect(&a)) {
-            return Some(hit);
-        }
-        let (b, t_c) = parts.b?;
-        self.inner.intersect(&b).map(|hit| Hit { t: hit.t + t_c, ..hit })
+        segments.iter().find_map(|seg| self.inner.intersect(&seg.ray).map(|hit| Hit { t: hit.t + seg.t_start, ..hit }))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        let Some(parts) = self.split(ray) else {
+        let Some(segments) = self.split(ray) else {
             return self.inner.occluded(ray);
         };
-        parts.a.is_some_and(|a| self.inner.occluded(&a)) || parts.b.is_some_and(|(b, _)| self.inner.occluded(&b))
+        segments.iter().any(|seg| self.inner.occluded(&seg.ray))
     }
 
     fn name(&self) -> &'static str {
@@ -148,6 +164,29 @@ mod tests {
             assert!(!rebased.occluded(&short) && rebased.intersect(&short).is_none());
         }
         assert_eq!(rebased_count, 200);
+        // A sky-sized sphere: every segment starts at t ≥ 0 from its origin (Embree asserts it), the
+        // segments cover the ray in order without a gap, and the far rays find the unit sphere.
+        let mut sky = shapes::sphere(Vec3::ZERO, 1.0, 16, 32);
+        sky.append(&shapes::sphere(Vec3::ZERO, 4.3e9, 4, 8));
+        let rebased = Rebased::new(Box::new(BruteForce::new(&sky.positions, &sky.indices)), &sky.positions, &sky.indices);
+        for k in 0..50 {
+            let a = k as f32 * 0.37;
+            let origin = Vec3::new(a.cos(), a.sin(), 0.3) * 2.0e9; // inside the coarse 4.3e9 sphere's facets
+            let target = Vec3::new(0.2 * a.sin(), 0.1, 0.2 * a.cos());
+            let ray = Ray::segment(origin, target - origin, 1e-3, f32::INFINITY);
+            let segments = rebased.split(&ray).expect("far");
+            assert!(segments.len() > 10 && segments.len() < 40, "{}", segments.len());
+            let mut covered = ray.t_min;
+            for seg in &segments {
+                assert!(seg.ray.t_min >= 0.0 && seg.ray.t_max > seg.ray.t_min, "ray {k}: {seg:?}");
+                assert!(seg.t_start + seg.ray.t_min <= covered * (1.0 + 1e-6), "ray {k}: gap before {seg:?} (covered to {covered})");
+                covered = covered.max(seg.t_start + seg.ray.t_max);
+            }
+            assert_eq!(covered, f32::INFINITY);
+            let hit = rebased.intersect(&ray).expect("the unit sphere");
+            assert!(hit.prim < inner && (ray.at(hit.t) - target).length() < 1.5, "ray {k}: {hit:?}");
+            assert!(rebased.occluded(&ray));
+        }
         let near = Ray::new(Vec3::new(0.0, 0.0, 0.5), Vec3::X);
         assert!(rebased.split(&near).is_none());
         assert_eq!(rebased.intersect(&near), oracle.intersect(&near));

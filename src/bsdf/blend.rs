@@ -16,7 +16,7 @@ use crate::math::{Vec2, Vec3};
 
 /// The blend weight as used: clamped to [0, 1] (the scene loader rejects other values; NaN → 0).
 #[inline]
-fn clamp_weight(weight: f32) -> f32 {
+pub(super) fn clamp_weight(weight: f32) -> f32 {
     debug_assert!((0.0..=1.0).contains(&weight), "blend weight {weight} outside [0, 1]");
     if weight > 0.0 {
         weight.min(1.0)

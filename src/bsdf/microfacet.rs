@@ -92,6 +92,13 @@ impl Microfacet {
         if v.dot(m) <= 0.0 {
             return 0.0;
         }
+        self.g1_over_cos_unmasked(v)
+    }
+
+    /// `G1(v, m)/cos θv` without the `v·m > 0` test: it depends on `v` alone, so an evaluation at one fixed
+    /// `wo` for many `wi` computes it once (`super::at_wo`).
+    #[must_use]
+    pub(super) fn g1_over_cos_unmasked(&self, v: Vec3) -> f32 {
         let alpha = self.alpha();
         let sin2 = v.x * v.x + v.y * v.y;
         match self.kind {

@@ -27,6 +27,7 @@
 //! bsdf = { type = "blendbsdf", weight = 0.3, bsdf_0 = { ... }, bsdf_1 = { ... } }
 //! ```
 
+mod at_wo;
 mod blend;
 mod conductor;
 mod dielectric;
@@ -37,6 +38,7 @@ mod roughconductor;
 #[cfg(test)]
 mod tests;
 
+pub use at_wo::BsdfAtWo;
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
 pub(crate) use conductor_table::CONDUCTORS;
 pub use microfacet::{Microfacet, MicrofacetType};

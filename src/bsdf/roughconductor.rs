@@ -48,11 +48,29 @@ pub(super) fn f_pdf(md: &Microfacet, specular_reflectance: Vec3, eta_k: Option<(
     if !upper(wo, wi) {
         return (Vec3::ZERO, 0.0);
     }
+    f_pdf_upper(md, specular_reflectance, eta_k, wo, wi, md.g1_over_cos_unmasked(wo))
+}
+
+/// [`f_pdf`] for `wo.z > 0`, given `g1o_unmasked = md.g1_over_cos_unmasked(wo)` (the part of `G1(wo)/cos θo`
+/// that does not depend on `wi`, computed once per `wo` by `super::at_wo`).
+#[inline]
+#[must_use]
+pub(super) fn f_pdf_upper(
+    md: &Microfacet,
+    specular_reflectance: Vec3,
+    eta_k: Option<(Vec3, Vec3)>,
+    wo: Vec3,
+    wi: Vec3,
+    g1o_unmasked: f32,
+) -> (Vec3, f32) {
+    if !upper(wo, wi) {
+        return (Vec3::ZERO, 0.0);
+    }
     let Some(h) = (wo + wi).try_normalize() else {
         return (Vec3::ZERO, 0.0);
     };
     let d = md.d(h);
-    let g1o = md.g1_over_cos(wo, h);
+    let g1o = if wo.dot(h) <= 0.0 { 0.0 } else { g1o_unmasked };
     let pdf = pdf_from(md, d, g1o, wo, h);
     let g = g1o * md.g1_over_cos(wi, h);
     if g == 0.0 {

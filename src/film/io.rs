@@ -24,6 +24,8 @@ pub enum ImageError {
     Png { path: PathBuf, source: ::image::ImageError },
     #[error("{path}: image size {width}×{height} is not supported (empty, or over u32 pixels per side)")]
     Size { path: PathBuf, width: usize, height: usize },
+    #[error("{path}: its header declares {width}×{height} pixels of {channels} channels ({}), more than {} (the largest film, 2³¹ pixels, or this machine's memory): a corrupt header, or an image too large to read here", crate::sys::gb(*bytes), crate::sys::gb(*limit))]
+    TooLarge { path: PathBuf, width: usize, height: usize, channels: usize, bytes: u64, limit: u64 },
     #[error("{path}: cannot serialise as JSON: {source}")]
     Json { path: PathBuf, source: serde_json::Error },
 }
@@ -165,6 +167,7 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
         path: path.to_owned(),
         source,
     })?;
+    check_exr_size(path, 3)?;
     let exr_image = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |size, _channels| (size.width(), vec![Vec3::ZERO; size.width() * size.height()]),
@@ -194,6 +197,26 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
     let h = u32::try_from(height).map_err(|_| size_err())?;
     let (_, pixels) = exr_image.layer_data.channel_data.pixels;
     Image::from_pixels(w, h, pixels).ok_or_else(size_err)
+}
+
+/// Reads the header of the EXR at `path` and refuses a layer whose pixels, at `channels` f32 values each
+/// (what the reader will allocate), exceed the largest film ([`crate::camera::MAX_FILM_PIXELS`]) or the
+/// machine's memory: a corrupt header must be an error, not an allocation that aborts the process (found by
+/// `tests/fuzz.rs`: a mutated header asked for 34 GB).
+pub fn check_exr_size(path: &Path, channels: usize) -> Result<(), ImageError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|source| ImageError::Exr { path: path.to_owned(), source })?;
+    let memory = crate::sys::physical_memory().unwrap_or(u64::MAX);
+    for header in &meta.headers {
+        let (width, height) = (header.layer_size.width(), header.layer_size.height());
+        let pixels = (width as u64).saturating_mul(height as u64);
+        let channels = channels.max(header.channels.list.len());
+        let bytes = pixels.saturating_mul(4 * channels as u64);
+        let limit = memory.min(crate::camera::MAX_FILM_PIXELS.saturating_mul(4 * channels as u64));
+        if bytes > limit {
+            return Err(ImageError::TooLarge { path: path.to_owned(), width, height, channels, bytes, limit });
+        }
+    }
+    Ok(())
 }
 
 /// Writes `image` as a float32 RGB OpenEXR file (ZIP compression in 16-line blocks: lossless), atomically.

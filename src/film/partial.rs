@@ -102,6 +102,7 @@ pub fn read_partial_film(path: impl AsRef<Path>) -> Result<(Film, BTreeMap<Strin
     let path = path.as_ref();
     let not_partial = |reason: String| PartialFilmError::NotPartial { path: path.to_owned(), reason };
     std::fs::File::open(path).map_err(|source| ImageError::Io { path: path.to_owned(), source })?;
+    super::io::check_exr_size(path, 0)?;
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()

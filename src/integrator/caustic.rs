@@ -22,7 +22,7 @@
 //! their caustics keep `w₂ = 1` in every estimator; so do paths whose delta chain is longer than the
 //! photon pass follows ([`crate::photon::photon_chain_reaches`], the one rule both sides ask).
 
-use crate::bsdf::{Bsdf, TransportMode};
+use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
 use crate::photon::{photon_chain_reaches, PhotonEmission, PhotonMap};
@@ -134,10 +134,14 @@ impl<'a> CausticEstimator<'a> {
         };
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
-        map.tree().knn(si.p, self.knn, self.max_radius, |ph| ph.wi_world().dot(ng) * wo_side > 0.0, scratch);
+        // Directions decoded once per photon at build time (KdTree::directions), tested in the search.
+        let directions = map.tree().directions();
+        map.tree().knn_by_index(si.p, self.knn, self.max_radius, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
         let r2 = scratch.r2() * self.area_scale;
         let delta_area = (std::f32::consts::PI * r2).max(self.min_area);
         let wo_local = si.frame.to_local(wo_world);
+        // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
+        let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
         let photons = map.tree().photons();
@@ -149,17 +153,17 @@ impl<'a> CausticEstimator<'a> {
             }
             used += 1;
             let ph = &photons[nb.index as usize];
-            let wi_local = si.frame.to_local(ph.wi_world());
+            let wi_local = si.frame.to_local(directions[nb.index as usize]);
             let w1_f = match self.estimator {
                 Estimator::Mis => {
-                    let (f, q2) = bsdf.f_pdf(wo_local, wi_local, TransportMode::Radiance);
+                    let (f, q2) = bsdf_at_wo.f_pdf(wi_local);
                     if f == Vec3::ZERO {
                         continue;
                     }
                     let q1 = q1_scale * ph.pdf_emit() * wi_local.z.abs();
                     mis_weight_pair(q1, q2).0 * f
                 }
-                _ => bsdf.f(wo_local, wi_local, TransportMode::Radiance),
+                _ => bsdf_at_wo.f(wi_local),
             };
             sum += w1_f * ph.power();
         }

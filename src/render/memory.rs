@@ -18,6 +18,7 @@ use crate::film::PixelSum;
 use crate::math::Vec3;
 use crate::photon::{Photon, PhotonBudget};
 use crate::scene::Scene;
+use crate::sys::gb;
 
 use super::{photon_pass_needed, RenderSettings};
 
@@ -73,13 +74,11 @@ pub struct MemoryLimit {
 }
 
 impl MemoryLimit {
-    /// The machine's physical memory (`MemTotal` of `/proc/meminfo`), or `None` where it cannot be read
+    /// The machine's physical memory ([`crate::sys::physical_memory`]), or `None` where it cannot be read
     /// (then no limit is applied).
     #[must_use]
     pub fn physical() -> Option<Self> {
-        let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-        let kib: u64 = text.lines().find_map(|l| l.strip_prefix("MemTotal:"))?.trim().strip_suffix("kB")?.trim().parse().ok()?;
-        Some(Self { bytes: kib.saturating_mul(1024), physical: true })
+        crate::sys::physical_memory().map(|bytes| Self { bytes, physical: true })
     }
 }
 
@@ -98,12 +97,6 @@ impl MemoryLimit {
 pub struct MemoryError {
     pub need: MemoryEstimate,
     pub limit: MemoryLimit,
-}
-
-/// Bytes as `12.35 GB` (powers of 1000).
-#[must_use]
-pub fn gb(bytes: u64) -> String {
-    format!("{:.2} GB", bytes as f64 / 1e9)
 }
 
 #[cfg(test)]
@@ -129,13 +122,5 @@ mod tests {
         let user = MemoryLimit { bytes: 1_000_000_000, physical: false };
         assert!(!need.check(user).unwrap_err().to_string().contains("--memory-limit GB if"));
         assert_eq!(need.check(MemoryLimit { bytes: need.total(), physical: false }), Ok(()));
-    }
-
-    #[test]
-    fn physical_memory_is_read_on_linux() {
-        if cfg!(target_os = "linux") {
-            let m = MemoryLimit::physical().expect("/proc/meminfo");
-            assert!(m.bytes > 1 << 28 && m.physical, "{m:?}");
-        }
     }
 }
