@@ -11,6 +11,8 @@
 
 mod common;
 
+use common::Rng;
+
 use std::io::Write;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -23,26 +25,6 @@ use caustica::mesh::load_mesh;
 use caustica::scene::Scene;
 
 const ROUNDS_IN_TESTS: u64 = 300;
-
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-}
 
 const INTERESTING: &[u8] = &[0, 0xff, 0x7f, 0x80, b'\n', b' ', b'-', b'9', b'e', b'.', b'"', b'[', b'=', b'#'];
 const NUMBERS: &[&str] = &["0", "-1", "4294967295", "1e38", "3e39", "nan", "inf", "-0", "1e-45", "99999999999999999999"];

@@ -11,6 +11,8 @@
 
 mod common;
 
+use common::Rng;
+
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
@@ -82,22 +84,6 @@ fn tokens(text: &str) -> Vec<(std::ops::Range<usize>, Kind)> {
         out.push((start..i.min(b.len()), kind));
     }
     out
-}
-
-/// SplitMix64: the mutation's random numbers, from (scene, index).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
 }
 
 /// One single-token mutation of `text`, with a description.
