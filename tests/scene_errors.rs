@@ -241,6 +241,56 @@ fn bad_values_name_the_key() {
             "not both",
         ),
         (
+            minimal("[[emitter]]\ntype = \"point\"\nposition = [0, 1, 0]\nto_world = { translate = [0, 1, 0] }"),
+            "emitter[0].position",
+            "not both",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"point\"\nintensity = [1, -2, 1]"),
+            "emitter[0].intensity",
+            "negative",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"point\"\nirradiance = 1"),
+            "emitter[0].irradiance",
+            "does not apply to emitter type `point`",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"spot\"\ncutoff_angle = 0"),
+            "emitter[0].cutoff_angle",
+            "(0, 180]",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"spot\"\ncutoff_angle = 20\nbeam_width = 30"),
+            "emitter[0].beam_width",
+            "[0, cutoff_angle = 20]",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"spot\"\nposition = [0, 1, 0]"),
+            "emitter[0].position",
+            "does not apply to emitter type `spot`",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"spot\"\nto_world = { scale = [1, 2, 1] }"),
+            "emitter[0].to_world",
+            "not shear or scale non-uniformly",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"directional\"\ndirection = [0, 0, 0]"),
+            "emitter[0].direction",
+            "zero",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"directional\"\ndirection = [0, nan, 1]"),
+            "emitter[0].direction",
+            "NaN",
+        ),
+        (
+            minimal("[[emitter]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nto_world = { rotate = { axis = [1, 0, 0], angle = 90 } }"),
+            "emitter[0].direction",
+            "not both",
+        ),
+        (
             shape_with("bsdf = { type = \"dielectric\", int_ior = 0 }"),
             "shape[0].bsdf.int_ior",
             "must be > 0",

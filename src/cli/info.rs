@@ -50,6 +50,9 @@ fn light_kind(l: &Light) -> &'static str {
         Light::Area(_) => "area",
         Light::Env(_) => "envmap",
         Light::Constant { .. } => "constant",
+        Light::Point(p) if p.spot().is_some() => "spot",
+        Light::Point(_) => "point",
+        Light::Directional(_) => "directional",
     }
 }
 

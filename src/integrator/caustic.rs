@@ -18,6 +18,8 @@
 //! Both sides call [`CausticEstimator::q1`] and the project's one MIS function
 //! [`crate::sampling::mis::mis_weight_pair`], so `w₁ + w₂ = 1` for the same path by construction.
 //!
+//! Delta lights (point, spot, directional) have no T2 technique: no BSDF-sampled ray reaches them, so
+//! their photons keep `w₁ = 1` (`p_emit = ∞`, method.md §4.1) and `mis` equals `pm` on their caustics.
 //! Emitters that emit no photons (the `constant` emitter, see `photon::emit`) have no T1 technique, so
 //! their caustics keep `w₂ = 1` in every estimator; so do paths whose delta chain is longer than the
 //! photon pass follows ([`crate::photon::photon_chain_reaches`], the one rule both sides ask).
@@ -28,6 +30,19 @@ use crate::photon::kdtree::KnnResult;
 use crate::photon::{photon_chain_reaches, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
+
+/// `(q₁, q₂)` of one photon's path at `x` (method.md §4): `q₁ = q1_scale·p_emit·|cos θ|` with
+/// `q1_scale = N·ΔA/α`, and `q₂` the BSDF pdf of the photon's direction. A delta light's photon
+/// (`p_emit = ∞`, method.md §4.1) has `q₁ = ∞` and `q₂ = 0`: no BSDF-sampled path reaches a delta light,
+/// so T2's density for that path is 0 and the MIS function's first rule gives `w₁ = 1`.
+#[inline]
+fn photon_densities(q1_scale: f32, pdf_emit: f32, cos_theta: f32, q2: f32) -> (f32, f32) {
+    if pdf_emit == f32::INFINITY {
+        (f32::INFINITY, 0.0)
+    } else {
+        (q1_scale * pdf_emit * cos_theta, q2)
+    }
+}
 
 /// What T2 needs to remember about the non-delta vertex `x` a BSDF-sampled ray left from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,6 +130,10 @@ impl<'a> CausticEstimator<'a> {
     #[must_use]
     pub fn q1(&self, pdf_emit: f32, cos_theta: f32, delta_area: f32, alpha: f32) -> f32 {
         let Some(map) = self.map else { return 0.0 };
+        if pdf_emit == f32::INFINITY {
+            // A delta light's start (method.md §4.1).
+            return f32::INFINITY;
+        }
         (map.emitted() as f64 * f64::from(pdf_emit) * f64::from(cos_theta.abs()) * f64::from(delta_area) / f64::from(alpha)) as f32
     }
 
@@ -160,7 +179,7 @@ impl<'a> CausticEstimator<'a> {
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let q1 = q1_scale * ph.pdf_emit() * wi_local.z.abs();
+                    let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), wi_local.z.abs(), q2);
                     mis_weight_pair(q1, q2).0 * f
                 }
                 _ => bsdf_at_wo.f(wi_local),

@@ -102,7 +102,8 @@ impl<'a> PathTracer<'a> {
                     let le = match light {
                         Light::Env(env) => env.eval(dir),
                         Light::Constant { radiance } => *radiance,
-                        Light::Area(_) => continue,
+                        // Rays never reach area lights here, nor the delta lights anywhere.
+                        Light::Area(_) | Light::Point(_) | Light::Directional(_) => continue,
                     };
                     if le == Vec3::ZERO {
                         continue;
@@ -151,6 +152,9 @@ impl<'a> PathTracer<'a> {
                         let shadow = if ls.dist.is_finite() { si.spawn_ray_to(ls.p_light) } else { si.spawn_ray(ls.wi_world) };
                         stats.rays += 1;
                         if !self.accel.occluded(&shadow) {
+                            // BSDF sampling reaches a delta light with probability 0: its density for this
+                            // path is 0 and the one MIS function gives NEE weight 1 (method.md §4.1).
+                            let bsdf_pdf_w = if ls.delta { 0.0 } else { bsdf_pdf_w };
                             let w = power_heuristic(ls.pdf_w, bsdf_pdf_w);
                             l += beta * f * ls.li * (w / ls.pdf_w);
                         }

@@ -143,6 +143,7 @@ impl AreaLight {
             pdf_w,
             p_light,
             n_light: t.n,
+            delta: false,
         })
     }
 

@@ -1,15 +1,18 @@
 //! Light sources and their sampling: emissive triangles ([`AreaLight`], Mitsuba's `area` emitter), the
-//! equirectangular environment map ([`EnvMap`], Mitsuba's `envmap`) and the constant environment
-//! ([`Light::Constant`], Mitsuba's `constant`); [`LightSet`] holds them all and chooses one ∝ power for
-//! next-event estimation (NEE) and for photon emission.
+//! equirectangular environment map ([`EnvMap`], Mitsuba's `envmap`), the constant environment
+//! ([`Light::Constant`], Mitsuba's `constant`) and the delta lights ([`PointLight`]: `point` and `spot`;
+//! [`DirectionalLight`]: `directional`; module `delta`); [`LightSet`] holds them all and chooses one ∝
+//! power for next-event estimation (NEE) and for photon emission.
 //!
 //! Measures are in the names: `pdf_w` per steradian, `pdf_a` per unit area. Every `pdf_li_*` is computed by
 //! the same function the matching `sample_li` uses, so the two always agree (MIS needs this).
 //!
 //! Power (method.md §2) is a luminance: `Φ = π·A·Y(L)` for a one-sided diffuse area light, and
-//! `Φ = π·R²·∫Y(Le) dω` for the environment map and the constant light, R = the scene's bounding-sphere radius.
+//! `Φ = π·R²·∫Y(Le) dω` for the environment map and the constant light, R = the scene's bounding-sphere radius;
+//! the delta lights' powers are in `delta`.
 
 pub mod area;
+pub mod delta;
 pub mod env;
 pub mod set;
 
@@ -18,9 +21,12 @@ mod test_util;
 #[cfg(test)]
 mod tests_area;
 #[cfg(test)]
+mod tests_delta;
+#[cfg(test)]
 mod tests_env;
 
 pub use area::AreaLight;
+pub use delta::{DirectionalLight, PointLight, SpotProfile};
 pub use env::EnvMap;
 pub use set::LightSet;
 
@@ -43,31 +49,39 @@ pub struct LightSample {
     /// Radiance arriving at the reference point from the light along `-wi_world` (unoccluded).
     pub li: Vec3,
     /// Solid-angle density of this sample: given this light for [`Light::sample_li`], including the light's
-    /// selection probability for [`LightSet::sample_li`].
+    /// selection probability for [`LightSet::sample_li`]. For a delta light (`delta`) it is a probability,
+    /// not a density: 1 given the light (its one point or direction), the selection probability in the set.
     pub pdf_w: f32,
     /// Sampled point on the light; for infinite lights `p_ref + wi_world` (a point along the direction,
     /// meaningful only together with `dist = ∞`).
     pub p_light: Vec3,
-    /// Unit geometric normal at `p_light` (the emitting side); `-wi_world` for infinite lights.
+    /// Unit geometric normal at `p_light` (the emitting side); `-wi_world` for infinite and delta lights.
     pub n_light: Vec3,
+    /// A delta light (point, spot, directional): no BSDF-sampled direction can reach it, so NEE is the only
+    /// technique for this light and its MIS weight is 1 (method.md §4.1).
+    pub delta: bool,
 }
 
 /// A photon's starting ray chosen by `sample_le` (method.md §2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmissionSample {
     /// Ray origin. For area lights the sampled point already moved off the surface by
-    /// [`crate::math::offset_ray_origin`]; for infinite lights a point on a disk outside the scene.
+    /// [`crate::math::offset_ray_origin`]; for infinite and directional lights a point on a disk outside
+    /// the scene; for point lights the light's position.
     pub origin: Vec3,
-    /// Unit normal of the emitting surface (area) or of the disk (infinite lights: `n = dir`, so cos θ′ = 1).
+    /// Unit normal of the emitting surface (area) or of the disk (infinite lights: `n = dir`, so cos θ′ = 1);
+    /// `dir` for point lights.
     pub n: Vec3,
     /// Unit direction the photon travels.
     pub dir: Vec3,
-    /// Emitted radiance along `dir`.
+    /// Emitted radiance along `dir`; for a point light its radiant intensity (W/sr), for a directional
+    /// light its irradiance: in each case `le·|cos θ′|/(pdf_a·pdf_w_dir)` is the power of the start.
     pub le: Vec3,
-    /// Density of `origin` per unit area: `1/A` (area light) or `1/(π R²)` (disk of infinite lights).
+    /// Density of `origin` per unit area: `1/A` (area light) or `1/(π R²)` (disk of infinite and
+    /// directional lights); 1 for a point light (the one point, a probability).
     pub pdf_a: f32,
     /// Density of `dir` per steradian: `cos θ′/π` (area light, cosine-weighted) or the light's
-    /// importance-sampling pdf (infinite lights).
+    /// importance-sampling pdf (infinite lights); 1 for a directional light (the one direction).
     pub pdf_w_dir: f32,
 }
 
@@ -112,6 +126,10 @@ pub enum Light {
     Constant {
         radiance: Vec3,
     },
+    /// Mitsuba's `point` and `spot` emitters (a delta position).
+    Point(PointLight),
+    /// Mitsuba's `directional` emitter (a delta direction).
+    Directional(DirectionalLight),
 }
 
 impl Light {
@@ -126,20 +144,29 @@ impl Light {
                 let wi = square_to_uniform_sphere(u);
                 infinite_light_sample(p_ref, wi, *radiance, uniform_sphere_pdf_w(wi))
             }
+            Light::Point(p) => p.sample_li(p_ref),
+            Light::Directional(d) => d.sample_li(p_ref),
         }
     }
 
-    /// `true` for lights at infinity (environment map, constant), seen by escaping rays.
+    /// `true` for the environment lights at infinity (environment map, constant), seen by escaping rays.
+    /// The directional light is at infinity too, but no ray finds its one direction: it is a delta light.
     #[must_use]
     pub fn is_infinite(&self) -> bool {
-        !matches!(self, Light::Area(_))
+        matches!(self, Light::Env(_) | Light::Constant { .. })
+    }
+
+    /// `true` for the delta lights (point, spot, directional): NEE and photons reach them, rays never do.
+    #[must_use]
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point(_) | Light::Directional(_))
     }
 
     /// Radiance this light sends along an escaping ray with direction `dir_world` (0 for area lights).
     #[must_use]
     pub fn le_escaped(&self, dir_world: Vec3) -> Vec3 {
         match self {
-            Light::Area(_) => Vec3::ZERO,
+            Light::Area(_) | Light::Point(_) | Light::Directional(_) => Vec3::ZERO,
             Light::Env(e) => e.eval(dir_world),
             Light::Constant { radiance } => *radiance,
         }
@@ -150,7 +177,7 @@ impl Light {
     #[must_use]
     pub fn pdf_li_escaped(&self, dir_world: Vec3) -> f32 {
         match self {
-            Light::Area(_) => 0.0,
+            Light::Area(_) | Light::Point(_) | Light::Directional(_) => 0.0,
             Light::Env(e) => e.pdf_li(dir_world),
             Light::Constant { .. } => uniform_sphere_pdf_w(dir_world),
         }
@@ -163,12 +190,15 @@ impl Light {
             Light::Area(a) => a.power(),
             Light::Env(e) => e.power(scene_radius),
             Light::Constant { radiance } => PI * scene_radius * scene_radius * 4.0 * PI * luminance(*radiance),
+            Light::Point(p) => p.power(),
+            Light::Directional(d) => d.power(scene_radius),
         }
     }
 
     /// Samples a photon's starting ray (method.md §2). The arguments are those of the light's own
     /// `sample_le`, in order: area `(u_pos, u_dir, u_tri)`, environment `(u_dir, u_disk)`, constant
-    /// `(u_dir, u_disk)` (uniform direction); infinite lights use the scene's bounding sphere.
+    /// `(u_dir, u_disk)` (uniform direction), point/spot `(u_dir)`, directional `(u_disk)`; infinite and
+    /// directional lights use the scene's bounding sphere.
     #[must_use]
     pub fn sample_le(&self, u_a: Vec2, u_b: Vec2, u_c: f32, scene_center: Vec3, scene_radius: f32) -> Option<EmissionSample> {
         match self {
@@ -178,6 +208,8 @@ impl Light {
                 let omega = square_to_uniform_sphere(u_a);
                 disk_emission(omega, *radiance, uniform_sphere_pdf_w(omega), u_b, scene_center, scene_radius, scene_radius)
             }
+            Light::Point(p) => p.sample_le(u_a),
+            Light::Directional(d) => d.sample_le_toward(u_a, scene_center, scene_radius, scene_radius),
         }
     }
 }
@@ -194,6 +226,7 @@ fn infinite_light_sample(p_ref: Vec3, wi: Vec3, li: Vec3, pdf_w: f32) -> Option<
         pdf_w,
         p_light: p_ref + wi,
         n_light: -wi,
+        delta: false,
     })
 }
 

@@ -10,12 +10,19 @@
 //!   cosine-weighted about the normal (a light inside or near `S_δ`, e.g. a closed mirror box);
 //! - **environment map**: a direction ω ∝ the map's importance distribution, then a point uniform on
 //!   a disk of `S_δ`'s radius perpendicular to ω, centred on the line through `S_δ`'s centre, outside
-//!   the scene's bounding sphere.
+//!   the scene's bounding sphere;
+//! - **point and spot lights**: a direction uniform in the cone `S_δ` subtends from the light (uniform
+//!   over the sphere when the light is inside `S_δ`), or in a spot's beam cone when that is narrower
+//!   ([`crate::light::PointLight::direction_toward`]);
+//! - **directional light**: its one direction, from a point uniform on the disk of the environment map's
+//!   rule (radius of `S_δ`, perpendicular to the light, outside the scene).
 //!
 //! The density of a photon's start per unit area and projected solid angle is
 //! `p_emit = (Φⱼ/Φ)·p_a(y)·p_ω(y, ω)/|cos θ_y|` (cos = 1 on the env disk). For the old emission ∝ power
 //! (uniform point, cosine direction) it is the paper's `Le/Φ`; in general q₁ = `N·p_emit·|cos θ|·ΔA/α`
-//! (method.md §4). The photon stores `p_emit` (one f32), and T2 asks [`PhotonEmission::pdf_emit_area`] /
+//! (method.md §4). A delta light's start has a Dirac factor (its point or its direction): in this measure
+//! its density is infinite, `p_emit = ∞` (method.md §4.1), and no T2 path reaches it. The photon stores
+//! `p_emit` (one f32), and T2 asks [`PhotonEmission::pdf_emit_area`] /
 //! [`PhotonEmission::pdf_emit_env`] for the same density at the light point a path reaches, through the
 //! same code ([`PhotonEmission::area_direction`]), so `w₁ + w₂ = 1` still holds. Every direction from
 //! which a photon can first hit a delta triangle lies in the cone (resp. every line that can hit one
@@ -54,7 +61,8 @@ pub struct PhotonStart {
     pub emission: EmissionSample,
     /// RGB power × N.
     pub power_n: Vec3,
-    /// Density per unit area and projected solid angle of this start (method.md §4).
+    /// Density per unit area and projected solid angle of this start (method.md §4); ∞ for a delta light
+    /// (method.md §4.1).
     pub pdf_emit: f32,
 }
 
@@ -107,6 +115,8 @@ impl PhotonEmission {
                 Light::Area(a) => PI * a.area() * luminance(a.radiance()),
                 Light::Env(e) => PI * radius * radius * e.integral_luminance(),
                 Light::Constant { .. } => 0.0,
+                Light::Point(p) => p.power(),
+                Light::Directional(d) => d.power(radius),
             })
             .map(|p| if p.is_finite() && p > 0.0 { p } else { 0.0 })
             .collect();
@@ -154,20 +164,24 @@ impl PhotonEmission {
     #[must_use]
     pub fn sample(&self, lights: &[Light], u_sel: f32, u_a: Vec2, u_b: Vec2, u_c: f32) -> Option<PhotonStart> {
         let (index, pmf, _) = self.selection.sample_discrete(u_sel);
-        let es = match &lights[index] {
+        let light = &lights[index];
+        let es = match light {
             Light::Area(a) => a.sample_le_with(u_a, u_c, |p, n| self.area_direction(p, n).sample(n, u_b))?,
             Light::Env(e) => e.sample_le_toward(u_a, u_b, self.target_center, self.target_radius, self.env_distance)?,
             Light::Constant { .. } => return None,
+            Light::Point(p) => p.sample_le_toward(u_b, self.target_center, self.target_radius)?,
+            Light::Directional(d) => d.sample_le_toward(u_a, self.target_center, self.target_radius, self.env_distance)?,
         };
         let cos = es.n.dot(es.dir).abs();
         let pdf = f64::from(pmf) * f64::from(es.pdf_a) * f64::from(es.pdf_w_dir);
         if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) || luminance(es.le) <= 0.0 {
             return None;
         }
-        // Power·N = Le·|cos θ′|/p (method.md §2), p_emit = p/|cos θ′| (per projected solid angle).
+        // Power·N = Le·|cos θ′|/p (method.md §2), p_emit = p/|cos θ′| (per projected solid angle); a delta
+        // light's p_emit is ∞ (method.md §4.1: its start is a Dirac in that measure).
         let power_n = es.le * (f64::from(cos) / pdf) as f32;
-        let pdf_emit = (pdf / f64::from(cos)) as f32;
-        (power_n.is_finite() && pdf_emit.is_finite()).then_some(PhotonStart { emission: es, power_n, pdf_emit })
+        let pdf_emit = if light.is_delta() { f32::INFINITY } else { (pdf / f64::from(cos)) as f32 };
+        (power_n.is_finite() && (pdf_emit.is_finite() || light.is_delta())).then_some(PhotonStart { emission: es, power_n, pdf_emit })
     }
 
     /// `p_emit` of a photon leaving point `p` (unit geometric normal `n`) of area light `index` in
@@ -235,6 +249,29 @@ filename = "scenes/assets/envmaps/studio.exr"
 [[emitter]]
 type = "constant"
 radiance = 0.1
+
+[[emitter]]   # outside S_δ: the cone toward it
+type = "point"
+position = [1, 3, 1]
+intensity = 50
+
+[[emitter]]   # a beam narrower than S_δ's cone, aimed off-centre (part of it misses the sphere)
+type = "spot"
+intensity = 400
+cutoff_angle = 8
+beam_width = 4
+to_world = { look_at = { origin = [-1, 2, -1], target = [0.8, 0.5, 0], up = [0, 1, 0] } }
+
+[[emitter]]   # a beam wider than S_δ's cone
+type = "spot"
+intensity = 100
+cutoff_angle = 60
+to_world = { look_at = { origin = [2, 1, 1], target = [0, 0, 0], up = [0, 1, 0] } }
+
+[[emitter]]
+type = "directional"
+direction = [-1, -2, 0.5]
+irradiance = 2
 "#;
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         Scene::from_toml_str(text, root, Path::new("emission-test.toml")).expect("test scene loads")
@@ -246,6 +283,14 @@ radiance = 0.1
         let area = lights.iter().position(|l| matches!(l, Light::Area(_))).expect("area light");
         let env = lights.iter().position(|l| matches!(l, Light::Env(_))).expect("env map");
         (area, env)
+    }
+
+    /// Indices of the delta lights (point, two spots, directional).
+    fn delta_indices(scene: &Scene) -> Vec<usize> {
+        let lights = scene.lights.lights();
+        let v: Vec<usize> = (0..lights.len()).filter(|&i| lights[i].is_delta()).collect();
+        assert_eq!(v.len(), 4, "four delta lights");
+        v
     }
 
     fn starts(em: &PhotonEmission, scene: &Scene, n: usize) -> Vec<(usize, PhotonStart)> {
@@ -266,10 +311,19 @@ radiance = 0.1
         let scene = scene();
         let em = PhotonEmission::new(&scene).expect("lights emit photons");
         let lights = scene.lights.lights();
-        let (mut area, mut env) = (0, 0);
+        let (mut area, mut env, mut delta) = (0, 0, 0);
         for (index, st) in starts(&em, &scene, 100_000) {
             let es = st.emission;
             let t2 = match &lights[index] {
+                Light::Point(_) | Light::Directional(_) => {
+                    // No T2 density: p_emit = ∞ (method.md §4.1); the power is Le·|cos|/p.
+                    delta += 1;
+                    assert_eq!(st.pdf_emit, f32::INFINITY);
+                    let p = em.selection.pmf(index) * es.pdf_a * es.pdf_w_dir;
+                    let expected = es.le.x * es.n.dot(es.dir).abs() / p;
+                    assert!((st.power_n.x / expected - 1.0).abs() < 1e-4, "light {index}: power {} vs {expected}", st.power_n.x);
+                    continue;
+                }
                 Light::Area(_) => {
                     area += 1;
                     assert!(matches!(em.area_direction(es.origin, es.n), AreaDirection::Cone { .. }), "the light is far from the sphere");
@@ -287,7 +341,7 @@ radiance = 0.1
             let le = es.le.x;
             assert!((st.power_n.x * st.pdf_emit / le - 1.0).abs() < 1e-4, "power {} p_emit {} Le {le}", st.power_n.x, st.pdf_emit);
         }
-        assert!(area > 1000 && env > 1000, "both lights sampled: {area} area, {env} env");
+        assert!(area > 1000 && env > 1000 && delta > 1000, "every kind sampled: {area} area, {env} env, {delta} delta");
         // Directions that cannot reach the sphere have no density; nor does the back of the light.
         let (ia, _) = light_indices(&scene);
         let p = Vec3::new(-1.0, 4.0, 1.0);
@@ -299,7 +353,8 @@ radiance = 0.1
 
     /// Unbiasedness of the aimed emission: the power it sends into the delta sphere `S_δ` equals the
     /// power the unaimed emission of `Light::sample_le` (cosine from the area light, the scene-sized disk
-    /// for the env map; every start counted, misses as 0) sends into it. Both are Monte Carlo sums over
+    /// for the env map and the directional light, the sphere or the beam of point and spot lights; every
+    /// start counted, misses as 0) sends into it. Both are Monte Carlo sums over
     /// n starts; z = difference / combined σ, |z| < 4 (measured below).
     #[test]
     fn aimed_emission_sends_the_same_power_into_the_delta_sphere() {
@@ -314,7 +369,7 @@ radiance = 0.1
         let (center, radius) = scene.bounds.bounding_sphere();
         let lights = scene.lights.lights();
         let (ia, ie) = light_indices(&scene);
-        for index in [ia, ie] {
+        for index in [ia, ie].into_iter().chain(delta_indices(&scene)) {
             let n = 200_000u32;
             // (sum, sum of squares) of power into S_δ per start, luminance.
             let mut aimed = (0.0f64, 0.0f64);
@@ -328,6 +383,8 @@ radiance = 0.1
                     Light::Area(a) => a.sample_le_with(ua, uc, |p, nn| em.area_direction(p, nn).sample(nn, ub)),
                     Light::Env(e) => e.sample_le_toward(ua, ub, em.target_center, em.target_radius, em.env_distance),
                     Light::Constant { .. } => None,
+                    Light::Point(p) => p.sample_le_toward(ub, em.target_center, em.target_radius),
+                    Light::Directional(d) => d.sample_le_toward(ua, em.target_center, em.target_radius, em.env_distance),
                 };
                 if let Some(es) = es.filter(|es| hits(es.origin, es.dir)) {
                     let x = f64::from(luminance(es.le)) * f64::from(es.n.dot(es.dir).abs()) / (f64::from(es.pdf_a) * f64::from(es.pdf_w_dir));
@@ -340,12 +397,13 @@ radiance = 0.1
                 }
             }
             let nf = f64::from(n);
-            let stats = |(s1, s2): (f64, f64)| (s1 / nf, ((s2 / nf - (s1 / nf).powi(2)) / nf).sqrt());
+            let stats = |(s1, s2): (f64, f64)| (s1 / nf, ((s2 / nf - (s1 / nf).powi(2)).max(0.0) / nf).sqrt());
             let ((ma, sa), (mp, sp)) = (stats(aimed), stats(plain));
             let z = (ma - mp) / (sa * sa + sp * sp).sqrt();
             eprintln!("light {index} (pmf {pmf:.3}): aimed {ma:.5} ± {sa:.5}, plain {mp:.5} ± {sp:.5}, z = {z:+.2}");
             assert!(z.abs() < 4.0, "light {index}: z = {z}");
-            assert!(sa < sp, "aiming must lower the noise: σ {sa} vs {sp}");
+            // (Equal up to noise for a spot whose beam is narrower than S_δ's cone: both sample the beam.)
+            assert!(sa <= 1.05 * sp, "aiming must not raise the noise: σ {sa} vs {sp}");
             assert!(sp < 0.05 * mp, "the test is too weak: σ {sp} of {mp}");
         }
     }

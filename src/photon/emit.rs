@@ -1,5 +1,5 @@
-//! The caustic photon pass (method.md §2): emission from area lights and environment maps aimed at the
-//! delta objects ([`super::emission`]), tracing through delta bounces, storage at the first non-delta hit.
+//! The caustic photon pass (method.md §2): emission from area lights, environment maps and delta lights
+//! aimed at the delta objects ([`super::emission`]), tracing through delta bounces, storage at the first non-delta hit.
 //!
 //! - Light `j` is chosen with probability `Φⱼ/Φ` among the photon-emitting lights; the start is
 //!   sampled by [`PhotonEmission::sample`]. The `constant` emitter emits no photons: its caustics stay
@@ -46,10 +46,11 @@ pub fn photon_chain_reaches(delta_vertices: u32) -> bool {
     (1..=MAX_DELTA_CHAIN).contains(&delta_vertices)
 }
 
-/// Whether `light` takes part in the photon pass (area lights and env maps do; `constant` does not).
+/// Whether `light` takes part in the photon pass (area lights, env maps and the delta lights do;
+/// `constant` does not).
 #[must_use]
 pub fn light_emits_photons(light: &Light) -> bool {
-    matches!(light, Light::Area(_) | Light::Env(_))
+    matches!(light, Light::Area(_) | Light::Env(_) | Light::Point(_) | Light::Directional(_))
 }
 
 /// A caustic photon map: the kd-tree over stored photons, and what q₁ needs (N, and the emission

@@ -8,7 +8,7 @@
 //! | 0..12  | position | 3 × f32 |
 //! | 12..16 | incident direction ωₚ (unit, pointing back toward the light) | octahedral map, 2 × u16 |
 //! | 16..28 | RGB power Φₚ | 3 × f32 (exact; the 32-byte budget allows it, so no shared-exponent loss) |
-//! | 28..32 | p_emit | f32: density of the photon's light sample per unit area and projected solid angle (the paper's extra float, `Le/Φ` for emission ∝ power; `photon::emission`) |
+//! | 28..32 | p_emit | f32: density of the photon's light sample per unit area and projected solid angle (the paper's extra float, `Le/Φ` for emission ∝ power; `photon::emission`); ∞ for a delta light (method.md §4.1) |
 //!
 //! Direction precision: the octahedral map (Meyer et al. 2010; Cigolle et al. 2014, "A Survey of
 //! Efficient Representations for Independent Unit Vectors", JCGT 3(2)) with 16 bits per coordinate
@@ -112,7 +112,8 @@ impl Photon {
     #[must_use]
     pub fn new(position: Vec3, wi_world: Vec3, power: Vec3, pdf_emit: f32) -> Self {
         debug_assert!((wi_world.length_squared() - 1.0).abs() < 1e-3, "wi_world not unit: {wi_world:?}");
-        debug_assert!(power.is_finite() && pdf_emit.is_finite(), "non-finite photon power {power:?} or p_emit {pdf_emit}");
+        // p_emit = ∞ marks a delta light's photon (method.md §4.1).
+        debug_assert!(power.is_finite() && pdf_emit >= 0.0, "non-finite photon power {power:?} or bad p_emit {pdf_emit}");
         Self {
             position: position.to_array(),
             wi_oct: encode_direction(wi_world),
@@ -157,7 +158,7 @@ impl Photon {
     }
 
     /// `p_emit`: density of the photon's light sample per unit area and projected solid angle
-    /// (method.md §4: enters q₁ = N·p_emit·|cos θ|·ΔA/α).
+    /// (method.md §4: enters q₁ = N·p_emit·|cos θ|·ΔA/α); ∞ for a delta light's photon (§4.1).
     #[inline]
     #[must_use]
     pub fn pdf_emit(&self) -> f32 {

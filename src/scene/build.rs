@@ -14,6 +14,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::delta_light;
 use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorType, ShapeDesc, ShapeType};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
@@ -75,6 +76,8 @@ enum EmitterPlan {
     Constant {
         radiance: Vec3,
     },
+    /// A point, spot or directional light (no file to load); `None` when it emits nothing.
+    Delta(Option<Light>),
 }
 
 /// Parses and builds a TOML scene; `name` is the file name used in errors, `base_dir` resolves relative paths.
@@ -137,7 +140,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         })
         .chain(emitter_plans.iter().filter_map(|e| match e {
             EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path)),
-            EmitterPlan::Constant { .. } => None,
+            EmitterPlan::Constant { .. } | EmitterPlan::Delta(_) => None,
         }));
     for (key, path) in files {
         if !path.exists() {
@@ -199,6 +202,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
                     lights.push(Light::Constant { radiance });
                 }
             }
+            EmitterPlan::Delta(light) => lights.extend(light),
         }
     }
     let bounds = mesh.bounds();
@@ -400,12 +404,21 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path)
     let specific: &[&str] = match e.kind {
         EmitterType::Envmap => &["filename", "scale", "to_world"],
         EmitterType::Constant => &["radiance"],
+        EmitterType::Point => &["intensity", "position", "to_world"],
+        EmitterType::Spot => &["intensity", "cutoff_angle", "beam_width", "to_world"],
+        EmitterType::Directional => &["irradiance", "direction", "to_world"],
     };
     let present = [
         ("filename", e.filename.is_some()),
         ("scale", e.scale.is_some()),
         ("to_world", e.to_world.is_some()),
         ("radiance", e.radiance.is_some()),
+        ("intensity", e.intensity.is_some()),
+        ("position", e.position.is_some()),
+        ("cutoff_angle", e.cutoff_angle.is_some()),
+        ("beam_width", e.beam_width.is_some()),
+        ("irradiance", e.irradiance.is_some()),
+        ("direction", e.direction.is_some()),
     ];
     if let Some((name, _)) = present.iter().find(|(name, p)| *p && !specific.contains(name)) {
         return Err(ctx.key_error(
@@ -443,6 +456,9 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path)
                 .map_or(Ok(Vec3::ONE), |c| ctx.radiance(&join_key(key, "radiance"), c.0))?;
             EmitterPlan::Constant { radiance }
         }
+        EmitterType::Point => EmitterPlan::Delta(delta_light::point(ctx, key, e)?),
+        EmitterType::Spot => EmitterPlan::Delta(delta_light::spot(ctx, key, e)?),
+        EmitterType::Directional => EmitterPlan::Delta(delta_light::directional(ctx, key, e)?),
     })
 }
 

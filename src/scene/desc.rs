@@ -381,6 +381,9 @@ pub(crate) struct AreaEmitterDesc {
 pub(crate) enum EmitterType {
     Envmap,
     Constant,
+    Point,
+    Spot,
+    Directional,
 }
 
 impl EmitterType {
@@ -388,6 +391,9 @@ impl EmitterType {
         match self {
             EmitterType::Envmap => "envmap",
             EmitterType::Constant => "constant",
+            EmitterType::Point => "point",
+            EmitterType::Spot => "spot",
+            EmitterType::Directional => "directional",
         }
     }
 }
@@ -401,4 +407,10 @@ pub(crate) struct EmitterDesc {
     pub scale: Option<f32>,
     pub to_world: Option<ToWorld>,
     pub radiance: Option<Colour>,
+    pub intensity: Option<Colour>,
+    pub position: Option<[f32; 3]>,
+    pub cutoff_angle: Option<f32>,
+    pub beam_width: Option<f32>,
+    pub irradiance: Option<Colour>,
+    pub direction: Option<[f32; 3]>,
 }

@@ -69,6 +69,21 @@
 //! [[emitter]]
 //! type = "constant"
 //! radiance = 0.05              # default 1
+//!
+//! [[emitter]]                  # delta lights (module `delta_light`): point, spot, directional
+//! type = "point"
+//! position = [0, 1.5, 0]       # or to_world, not both
+//! intensity = 2                # W/sr, default 1
+//!
+//! [[emitter]]
+//! type = "spot"                # cutoff_angle (20), beam_width (¾ cutoff), degrees; shines along +z of to_world
+//! intensity = 10
+//! to_world = { look_at = { origin = [0, 2, 0], target = [0, 0, 0], up = [0, 0, 1] } }
+//!
+//! [[emitter]]
+//! type = "directional"
+//! direction = [1, -2, 0.5]     # the way the light travels; or to_world (its +z), not both
+//! irradiance = 1.5             # W/m², default 1
 //! ```
 //!
 //! **Transforms** (`transform`): `to_world` is one table or a list; in a list **the first element is
@@ -85,6 +100,7 @@
 
 mod build;
 mod clip;
+mod delta_light;
 mod desc;
 mod error;
 mod interaction;

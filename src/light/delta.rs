@@ -1,0 +1,292 @@
+//! Delta lights (Mitsuba 3's `point`, `spot` and `directional` emitters): light from one point, or from
+//! one direction. No ray can hit them, so next-event estimation is their only eye-side technique (MIS
+//! weight 1, method.md §4.1) and their caustics come only from photons.
+//!
+//! - **point** (`point.cpp`): radiant intensity `I` (W/sr) in every direction; the radiance arriving at
+//!   distance r is `I/r²` along the line to the light.
+//! - **spot** (`spot.cpp`): a point light whose intensity is `I·falloff(θ)`, θ the angle to the spot's
+//!   axis (+z of its `to_world`): 1 up to `beam_width`, falling linearly in θ to 0 at `cutoff_angle`
+//!   (Mitsuba's `falloff_curve`: `(cutoff − θ)/(cutoff − beam_width)`), 0 beyond.
+//! - **directional** (`directional.cpp`): irradiance `E` (W/m² on a surface facing the light) arriving
+//!   along one direction from infinitely far away.
+//!
+//! Power (method.md §2, luminance): point `4π·Y(I)`; spot `2π·Y(I)·∫₀^c falloff(θ) sin θ dθ =
+//! 2π·Y(I)·(1 − (sin c − sin b)/(c − b))` (c the cutoff, b the beam width, both in radians; `1 − cos c`
+//! when b = c); directional `π·R²·Y(E)`, R the scene's bounding radius (the disk of a distant light that
+//! covers the scene, as for environment maps).
+
+use std::f32::consts::PI;
+
+use super::{disk_emission, EmissionSample, LightSample};
+use crate::math::{Frame, Vec2, Vec3};
+use crate::sampling::warp::{square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf_w, uniform_sphere_pdf_w};
+
+/// The beam of a spot light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotProfile {
+    /// Unit axis in world space (the spot's local +z).
+    axis: Vec3,
+    /// Cutoff and beam-width angles in radians, `0 ≤ beam ≤ cutoff ≤ π`, `cutoff > 0`.
+    cutoff: f32,
+    beam: f32,
+    cos_cutoff: f32,
+    cos_beam: f32,
+}
+
+impl SpotProfile {
+    /// A beam along `axis` (any length > 0) with angles in degrees; `None` unless
+    /// `0 < cutoff_deg ≤ 180` and `0 ≤ beam_deg ≤ cutoff_deg` and the axis has a direction.
+    #[must_use]
+    pub fn new(axis: Vec3, cutoff_deg: f32, beam_deg: f32) -> Option<Self> {
+        let axis = axis.try_normalize()?;
+        if !(cutoff_deg > 0.0 && cutoff_deg <= 180.0 && beam_deg >= 0.0 && beam_deg <= cutoff_deg) {
+            return None;
+        }
+        let (cutoff, beam) = (cutoff_deg.to_radians(), beam_deg.to_radians());
+        Some(Self { axis, cutoff, beam, cos_cutoff: cutoff.cos(), cos_beam: beam.cos() })
+    }
+
+    /// Unit axis (world space).
+    #[must_use]
+    pub fn axis(&self) -> Vec3 {
+        self.axis
+    }
+
+    /// `cos` of the cutoff angle: no light leaves at a larger angle to the axis.
+    #[must_use]
+    pub fn cos_cutoff(&self) -> f32 {
+        self.cos_cutoff
+    }
+
+    /// The falloff factor in [0, 1] for the unit direction `w` leaving the light (Mitsuba's
+    /// `falloff_curve`): 1 within the beam, `(cutoff − θ)/(cutoff − beam)` in the transition, 0 from the
+    /// cutoff on.
+    #[must_use]
+    pub fn falloff(&self, w: Vec3) -> f32 {
+        let cos_theta = self.axis.dot(w);
+        if cos_theta.is_nan() || cos_theta <= self.cos_cutoff {
+            0.0
+        } else if cos_theta >= self.cos_beam {
+            1.0
+        } else {
+            ((self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) / (self.cutoff - self.beam)).clamp(0.0, 1.0)
+        }
+    }
+
+    /// `∫ falloff dω` over the sphere: `2π·(1 − (sin c − sin b)/(c − b))` (the integral of
+    /// `(c − θ)·sin θ` over [b, c] by parts), `2π·(1 − cos c)` when b = c.
+    #[must_use]
+    pub fn solid_angle_integral(&self) -> f32 {
+        let (c, b) = (f64::from(self.cutoff), f64::from(self.beam));
+        let width = c - b;
+        let inner = if width < 1e-6 {
+            // (sin c − sin b)/(c − b) → cos of the midpoint (error O(width²)).
+            1.0 - (0.5 * (b + c)).cos()
+        } else {
+            1.0 - (c.sin() - b.sin()) / width
+        };
+        (2.0 * std::f64::consts::PI * inner) as f32
+    }
+}
+
+/// A point light, optionally a spot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLight {
+    position: Vec3,
+    /// Radiant intensity (W/sr) at the centre of the beam (everywhere for a point light).
+    intensity: Vec3,
+    spot: Option<SpotProfile>,
+}
+
+/// How photon directions leave a point light (method.md §2): uniform in a cone, or over the sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PointDirection {
+    Cone { axis: Vec3, cos_max: f32 },
+    Sphere,
+}
+
+impl PointDirection {
+    /// A direction and its solid-angle density.
+    #[must_use]
+    pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        match *self {
+            PointDirection::Cone { axis, cos_max } => {
+                let w = Frame::from_normal(axis).to_world(square_to_uniform_cone(u, cos_max)).normalize();
+                (w, uniform_cone_pdf_w(Vec3::Z, cos_max))
+            }
+            PointDirection::Sphere => {
+                let w = square_to_uniform_sphere(u);
+                (w, uniform_sphere_pdf_w(w))
+            }
+        }
+    }
+
+    /// `cos` of the half-angle (−1 for the sphere): the larger, the smaller the solid angle.
+    fn cos_max(&self) -> f32 {
+        match *self {
+            PointDirection::Cone { cos_max, .. } => cos_max,
+            PointDirection::Sphere => -1.0,
+        }
+    }
+}
+
+impl PointLight {
+    #[must_use]
+    pub fn new(position: Vec3, intensity: Vec3, spot: Option<SpotProfile>) -> Self {
+        Self { position, intensity, spot }
+    }
+
+    #[must_use]
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
+    #[must_use]
+    pub fn intensity(&self) -> Vec3 {
+        self.intensity
+    }
+
+    #[must_use]
+    pub fn spot(&self) -> Option<&SpotProfile> {
+        self.spot.as_ref()
+    }
+
+    /// Radiant intensity leaving along the unit direction `w`: `I·falloff` (W/sr).
+    #[must_use]
+    pub fn intensity_toward(&self, w: Vec3) -> Vec3 {
+        match &self.spot {
+            None => self.intensity,
+            Some(s) => self.intensity * s.falloff(w),
+        }
+    }
+
+    /// Power Φ (luminance): `Y(I)·∫falloff dω` (4π for a point light).
+    #[must_use]
+    pub fn power(&self) -> f32 {
+        let solid_angle = self.spot.as_ref().map_or(4.0 * PI, SpotProfile::solid_angle_integral);
+        super::luminance(self.intensity) * solid_angle
+    }
+
+    /// NEE: the light seen from `p_ref`, `li = I(ω)/r²`, `pdf_w = 1` (the one point, chosen with
+    /// certainty; `delta`). `None` at the light's own position or outside a spot's beam.
+    #[must_use]
+    pub fn sample_li(&self, p_ref: Vec3) -> Option<LightSample> {
+        let d = self.position - p_ref;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0 && dist2.is_finite()) {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let li = self.intensity_toward(-wi) / dist2;
+        if li == Vec3::ZERO || !li.is_finite() {
+            return None;
+        }
+        Some(LightSample { wi_world: wi, dist, li, pdf_w: 1.0, p_light: self.position, n_light: -wi, delta: true })
+    }
+
+    /// The direction rule of photon emission toward a sphere (`center`, `radius`), method.md §2: the cone
+    /// the sphere subtends from the light when the light is outside it, else the sphere of directions; a
+    /// spot's beam cone instead when that is narrower. Both cones contain every direction that leaves the
+    /// light inside the beam toward the sphere, so either one samples all of them.
+    #[must_use]
+    pub fn direction_toward(&self, center: Vec3, radius: f32) -> PointDirection {
+        let d = center - self.position;
+        let dist2 = d.length_squared();
+        let r2 = radius * radius;
+        let toward = if dist2.is_finite() && dist2 > r2 {
+            PointDirection::Cone { axis: d / dist2.sqrt(), cos_max: (1.0 - r2 / dist2).max(0.0).sqrt() }
+        } else {
+            PointDirection::Sphere
+        };
+        match &self.spot {
+            Some(s) if s.cos_cutoff > toward.cos_max() => PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff },
+            _ => toward,
+        }
+    }
+
+    /// A photon's start aimed at the sphere (`center`, `radius`): a direction by
+    /// [`PointLight::direction_toward`]. The emission sample's `le` is the radiant intensity along the
+    /// direction (W/sr), `pdf_a = 1` (the one point) and `n = dir`, so `le·cos/(pdf_a·pdf_w_dir)` is the
+    /// photon's power as for area lights. `None` outside a spot's beam.
+    #[must_use]
+    pub fn sample_le_toward(&self, u_dir: Vec2, center: Vec3, radius: f32) -> Option<EmissionSample> {
+        self.sample_le_with(self.direction_toward(center, radius), u_dir)
+    }
+
+    /// Unaimed emission (tests, `Light::sample_le`): the beam cone of a spot, the sphere for a point light.
+    #[must_use]
+    pub fn sample_le(&self, u_dir: Vec2) -> Option<EmissionSample> {
+        let rule = match &self.spot {
+            Some(s) => PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff },
+            None => PointDirection::Sphere,
+        };
+        self.sample_le_with(rule, u_dir)
+    }
+
+    fn sample_le_with(&self, rule: PointDirection, u_dir: Vec2) -> Option<EmissionSample> {
+        let (dir, pdf_w_dir) = rule.sample(u_dir);
+        let le = self.intensity_toward(dir);
+        if !(pdf_w_dir > 0.0 && pdf_w_dir.is_finite()) || le == Vec3::ZERO {
+            return None;
+        }
+        Some(EmissionSample { origin: self.position, n: dir, dir, le, pdf_a: 1.0, pdf_w_dir })
+    }
+}
+
+/// A distant directional light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectionalLight {
+    /// Unit direction the light travels in.
+    dir: Vec3,
+    /// Irradiance on a surface facing the light (W/m²).
+    irradiance: Vec3,
+}
+
+impl DirectionalLight {
+    /// A light travelling along `dir` (any length > 0); `None` for a zero or non-finite direction.
+    #[must_use]
+    pub fn new(dir: Vec3, irradiance: Vec3) -> Option<Self> {
+        Some(Self { dir: dir.try_normalize()?, irradiance })
+    }
+
+    /// Unit direction of travel.
+    #[must_use]
+    pub fn dir(&self) -> Vec3 {
+        self.dir
+    }
+
+    #[must_use]
+    pub fn irradiance(&self) -> Vec3 {
+        self.irradiance
+    }
+
+    /// Power Φ = π·R²·Y(E), R the scene's bounding radius (method.md §2).
+    #[must_use]
+    pub fn power(&self, scene_radius: f32) -> f32 {
+        PI * scene_radius * scene_radius * super::luminance(self.irradiance)
+    }
+
+    /// NEE: `li = E` from `−dir`, `dist = ∞`, `pdf_w = 1` (`delta`).
+    #[must_use]
+    pub fn sample_li(&self, p_ref: Vec3) -> Option<LightSample> {
+        (self.irradiance != Vec3::ZERO).then_some(LightSample {
+            wi_world: -self.dir,
+            dist: f32::INFINITY,
+            li: self.irradiance,
+            pdf_w: 1.0,
+            p_light: p_ref - self.dir,
+            n_light: self.dir,
+            delta: true,
+        })
+    }
+
+    /// A photon's start: an origin uniform on a disk of `radius` perpendicular to the light, centred on
+    /// the line through `center`, `distance` before it (outside the scene), travelling along `dir`.
+    /// `pdf_a = 1/(π·radius²)`, `pdf_w_dir = 1` (the one direction) and `le = E`, so the photon's power is
+    /// `E·π·radius²` over the photon count, as for environment maps.
+    #[must_use]
+    pub fn sample_le_toward(&self, u_disk: Vec2, center: Vec3, radius: f32, distance: f32) -> Option<EmissionSample> {
+        disk_emission(-self.dir, self.irradiance, 1.0, u_disk, center, radius, distance)
+    }
+}
