@@ -12,7 +12,7 @@
 //! small light facing down, 32×24 pixels), so that the scaled and translated variants are exactly the base
 //! scene in other units: their images must have the base scene's mean.
 
-mod common;
+use crate::common;
 
 use caustica::photon::PhotonBudget;
 use caustica::render::{RenderSettings, RenderPhaseStats};
