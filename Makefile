@@ -24,7 +24,7 @@ demo: build
 
 test: setup
 	$(CARGO) test --release
-	$(CARGO) build --release --no-default-features
+	$(CARGO) check --release --no-default-features --all-targets
 	EMBREE4_TARGET_DIR=$(CURDIR)/target scripts/test-embree4
 
 test-slurm: setup

@@ -68,7 +68,8 @@ impl Rebased {
     }
 
     /// The segments of `ray` in order along it if it is far (module docs), `None` if it is traced as it is.
-    fn split(&self, ray: &Ray) -> Option<Vec<Segment>> {
+    /// Made lazily: a hit in the first segments ends the search without computing the others.
+    fn split(&self, ray: &Ray) -> Option<Segments> {
         // One multiply-add chain and a compare for every ordinary ray.
         if !(ray.origin.length_squared() > self.far * self.far) {
             return None;
@@ -85,28 +86,92 @@ impl Rebased {
             return None;
         }
         let d_len = dd.sqrt();
-        // Overlap at a seam: a few ulps (of f32, the precision of the backends' t) of the largest t.
-        let seam = 4.0 * f64::from(f32::EPSILON) * (t_c.abs() + o.length() / d_len);
-        let mut segments = Vec::with_capacity(24);
-        let mut push = |start: f64, end: f64| {
-            // `[start, end]` of the original ray, clipped to `[t_min, t_max]`, traced from the point at `start`.
-            let (lo, hi) = (start.max(t_min), (end + seam).min(t_max));
-            if lo < hi {
-                let origin = (o + start * d).as_vec3();
-                segments.push(Segment { ray: Ray::segment(origin, ray.dir, (lo - start) as f32, (hi - start) as f32), t_start: start as f32 });
+        Some(Segments {
+            o,
+            d,
+            dir: ray.dir,
+            t_min,
+            t_max,
+            t_c,
+            // Overlap at a seam: a few ulps (of f32, the precision of the backends' t) of the largest t.
+            seam: 4.0 * f64::from(f32::EPSILON) * (t_c.abs() + o.length() / d_len),
+            s: 0.5 * o.length() / d_len,
+            near: f64::from(self.far) / d_len,
+            stage: Stage::First,
+        })
+    }
+}
+
+/// Where [`Segments`] is: `[0, t_c − s]`, then the halving pieces `[t_c − s, t_c − s/2]` while `s` is
+/// above the near distance, then `[t_c − s, ∞)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    First,
+    Halving,
+    Last,
+    Done,
+}
+
+/// The segments of one far ray, approaching the closest point to the world origin `t_c` in pieces of
+/// halving length (each traced from an f64 origin on the ray, so its rounding shrinks with its distance).
+struct Segments {
+    o: glam::DVec3,
+    d: glam::DVec3,
+    dir: Vec3,
+    t_min: f64,
+    t_max: f64,
+    t_c: f64,
+    seam: f64,
+    s: f64,
+    near: f64,
+    stage: Stage,
+}
+
+impl Segments {
+    /// `[start, end]` of the original ray, clipped to `[t_min, t_max]`, traced from the point at `start`;
+    /// `None` when the clip leaves nothing.
+    fn piece(&self, start: f64, end: f64) -> Option<Segment> {
+        let (lo, hi) = (start.max(self.t_min), (end + self.seam).min(self.t_max));
+        (lo < hi).then(|| {
+            let origin = (self.o + start * self.d).as_vec3();
+            Segment { ray: Ray::segment(origin, self.dir, (lo - start) as f32, (hi - start) as f32), t_start: start as f32 }
+        })
+    }
+}
+
+impl Iterator for Segments {
+    type Item = Segment;
+
+    fn next(&mut self) -> Option<Segment> {
+        loop {
+            let (t_c, s) = (self.t_c, self.s);
+            let piece = match self.stage {
+                Stage::First => {
+                    self.stage = Stage::Halving;
+                    self.piece(0.0, t_c - s)
+                }
+                Stage::Halving if s > self.near && t_c - s < self.t_max => {
+                    self.s *= 0.5;
+                    self.piece(t_c - s, t_c - 0.5 * s)
+                }
+                Stage::Halving => {
+                    self.stage = Stage::Last;
+                    continue;
+                }
+                Stage::Last => {
+                    self.stage = Stage::Done;
+                    if t_c - s < self.t_max {
+                        self.piece(t_c - s, f64::INFINITY)
+                    } else {
+                        None
+                    }
+                }
+                Stage::Done => return None,
+            };
+            if piece.is_some() {
+                return piece;
             }
-        };
-        let mut s = 0.5 * o.length() / d_len;
-        push(0.0, t_c - s);
-        let near = f64::from(self.far) / d_len;
-        while s > near && t_c - s < t_max {
-            push(t_c - s, t_c - 0.5 * s);
-            s *= 0.5;
         }
-        if t_c - s < t_max {
-            push(t_c - s, f64::INFINITY);
-        }
-        Some(segments)
     }
 }
 
@@ -115,14 +180,14 @@ impl Accel for Rebased {
         let Some(segments) = self.split(ray) else {
             return self.inner.intersect(ray);
         };
-        segments.iter().find_map(|seg| self.inner.intersect(&seg.ray).map(|hit| Hit { t: hit.t + seg.t_start, ..hit }))
+        segments.into_iter().find_map(|seg| self.inner.intersect(&seg.ray).map(|hit| Hit { t: hit.t + seg.t_start, ..hit }))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         let Some(segments) = self.split(ray) else {
             return self.inner.occluded(ray);
         };
-        segments.iter().any(|seg| self.inner.occluded(&seg.ray))
+        segments.into_iter().any(|seg| self.inner.occluded(&seg.ray))
     }
 
     fn name(&self) -> &'static str {
@@ -174,7 +239,7 @@ mod tests {
             let origin = Vec3::new(a.cos(), a.sin(), 0.3) * 2.0e9; // inside the coarse 4.3e9 sphere's facets
             let target = Vec3::new(0.2 * a.sin(), 0.1, 0.2 * a.cos());
             let ray = Ray::segment(origin, target - origin, 1e-3, f32::INFINITY);
-            let segments = rebased.split(&ray).expect("far");
+            let segments: Vec<Segment> = rebased.split(&ray).expect("far").collect();
             assert!(segments.len() > 10 && segments.len() < 40, "{}", segments.len());
             let mut covered = ray.t_min;
             for seg in &segments {

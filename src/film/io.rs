@@ -202,7 +202,7 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
 /// Reads the header of the EXR at `path` and refuses a layer whose pixels, at `channels` f32 values each
 /// (what the reader will allocate), exceed the largest film ([`crate::camera::MAX_FILM_PIXELS`]) or the
 /// machine's memory: a corrupt header must be an error, not an allocation that aborts the process (found by
-/// `tests/fuzz.rs`: a mutated header asked for 34 GB).
+/// `tests/suite/fuzz.rs`: a mutated header asked for 34 GB).
 pub fn check_exr_size(path: &Path, channels: usize) -> Result<(), ImageError> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|source| ImageError::Exr { path: path.to_owned(), source })?;
     let memory = crate::sys::physical_memory().unwrap_or(u64::MAX);

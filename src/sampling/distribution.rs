@@ -108,6 +108,11 @@ impl Distribution1D {
     /// Never returns a bin of zero weight.
     #[must_use]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        if self.cdf.len() == 2 {
+            // One bin (one light, a one-triangle light): cdf = [0, 1], so the search below would give
+            // bin 0 and u itself (exact in f64); the same result without the search and the division.
+            return (0, self.width(0), clamp_unit(u));
+        }
         let (i, du) = self.invert(u);
         (i, self.width(i), (du as f32).min(ONE_MINUS_EPSILON))
     }

@@ -30,7 +30,7 @@ const BUILD_QUALITY: sys::RTCBuildQuality = sys::RTC_BUILD_QUALITY_MEDIUM;
 
 /// Scene flags: `RTC_SCENE_FLAG_ROBUST`: traversal and triangle tests avoid optimisations that lose
 /// accuracy. Needed for watertightness: without it (Embree 3.13.5), rays from a sphere's centre
-/// through its vertices leak (`tests/embree_backend.rs` fails), while the brute-force oracle and the
+/// through its vertices leak (`tests/suite/embree_backend.rs` fails), while the brute-force oracle and the
 /// BVH use the watertight Woop test. Its speed cost was within noise in our measurements.
 const SCENE_FLAGS: sys::RTCSceneFlags = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST;
 

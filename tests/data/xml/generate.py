@@ -6,7 +6,7 @@ as `mi.ScalarTransform4f`, caustica's caustic settings as the `caustics_*` prope
 integrator), parsed with `mitsuba.parser.parse_dict` and written with `mitsuba.parser.write_file`. The
 XML files are therefore written by another program than caustica: they test that caustica reads what
 Mitsuba writes (`<default>`s with `$` references, `lookat`, decomposed transforms, `name` attributes on
-nested plugins). `tests/scene_xml.rs` renders each twin and its TOML scene and compares the images.
+nested plugins). `tests/suite/scene_xml.rs` renders each twin and its TOML scene and compares the images.
 
 Usage (from the repository root; Mitsuba from PyPI, its scalar_rgb variant needs no LLVM):
     python3 -m venv build/mi-venv && build/mi-venv/bin/pip install mitsuba==3.9.1

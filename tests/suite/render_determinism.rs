@@ -19,7 +19,7 @@
 //!     variance (the unpaired bound: conservative, since the renders are positively correlated; a paired
 //!     bound per block would rest on the few dᵢ that are not ~0 and is not Gaussian). Measured max |z| 0.01.
 
-mod common;
+use crate::common;
 
 use caustica::accel::BackendKind;
 use caustica::film::Image;

@@ -9,7 +9,7 @@
 //! harness for a bounded time per reader (`CAUSTICA_FUZZ_SECONDS`), writing each new crashing input to
 //! `tests/data/fuzz/<reader>/` and failing at the end if there was one.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 

@@ -9,7 +9,7 @@
 //! mutated budgets beyond that are a question of time, not of correctness, and are refused up front only
 //! where memory runs out (the limits are tested elsewhere).
 
-mod common;
+use crate::common;
 
 use common::Rng;
 

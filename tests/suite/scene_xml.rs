@@ -15,7 +15,7 @@
 //!   every number as in the TOML): **bit-identical** to its TOML twin.
 //! - **Errors** name the file, the line and the plugin or property.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::Path;

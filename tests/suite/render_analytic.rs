@@ -32,7 +32,7 @@
 //!   loss of the microfacet model (Smith masking). E(μ) is computed here by quadrature, independently of
 //!   the renderer's code (see [`ggx_albedo`]).
 
-mod common;
+use crate::common;
 
 use caustica::math::Vec3;
 use caustica::render::RenderSettings;

@@ -7,7 +7,7 @@
 //! pixel means has variance `Var m = Σ σᵢ² / n²` with `σᵢ² = s²ᵢ / cᵢ` (the pixel's sample variance over its
 //! sample count). That is what [`LumImage::region`] returns.
 
-#![allow(dead_code)] // each test binary uses a different subset
+#![allow(dead_code)] // not every helper is used by the suites of every build (e.g. without Embree)
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;

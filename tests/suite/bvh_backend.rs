@@ -340,7 +340,7 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
 }
 
 /// Incoherent-ray throughput and build time. Run with
-/// `cargo test --release --no-default-features --test bvh_backend -- --ignored bvh_speed --nocapture`.
+/// `cargo test --release --no-default-features --test suite -- --ignored bvh_speed --nocapture`.
 /// Environment: `BVH_SPEED_RINGS` (sphere resolution, default 317 → 200k triangles), `BVH_SPEED_RAYS`.
 #[test]
 #[ignore = "benchmark"]

@@ -143,7 +143,7 @@ fn broken_files_are_errors_that_name_the_file() {
 }
 
 /// The Stanford dragon from `scripts/fetch-dragon` (not committed, so run on demand:
-/// `scripts/fetch-dragon && cargo test --release --test mesh_load -- --ignored`).
+/// `scripts/fetch-dragon && cargo test --release --test suite -- --ignored mesh_load::`).
 #[test]
 #[ignore = "needs build/dragon from scripts/fetch-dragon"]
 fn fetched_dragons_load() {

@@ -49,7 +49,7 @@
 //!   and their difference is far below either's noise; the bound is 1σ of the pm caustic estimate
 //!   (measured relative difference −2.3·10⁻⁴).
 
-mod common;
+use crate::common;
 
 use caustica::photon::PhotonBudget;
 use caustica::render::RenderSettings;

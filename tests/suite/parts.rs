@@ -10,7 +10,7 @@
 //! accumulation (then the 4-pass renders differ in the last bits for N = 2, 3), if a part skips a pass
 //! without advancing the sample index, or if the photon map of a pass depends on the passes before it.
 
-mod common;
+use crate::common;
 
 use std::sync::atomic::AtomicBool;
 

@@ -12,7 +12,7 @@
 //! small light facing down, 32×24 pixels), so that the scaled and translated variants are exactly the base
 //! scene in other units: their images must have the base scene's mean.
 
-mod common;
+use crate::common;
 
 use caustica::photon::PhotonBudget;
 use caustica::render::{RenderSettings, RenderPhaseStats};
@@ -371,4 +371,152 @@ fn photon_budget_is_the_emitted_count() {
     // Guards the template: the settings come from the scene file.
     let scene = load("base", &Params::default()).unwrap();
     assert_eq!(RenderSettings::from_scene(&scene).photons, PhotonBudget::Emitted(20_000));
+}
+
+/// The environment-map scene: a diffuse floor and a glass sphere under an equirectangular map written to
+/// a temporary EXR (`texels` is the map, 32×16, row 0 at the zenith), scaled by `scale`.
+fn env_scene(name: &str, texels: impl FnMut(u32, u32) -> glam::Vec3, scale: f64) -> Scene {
+    let dir = std::env::temp_dir().join(format!("caustica-stress-env-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    caustica::film::write_exr(dir.join("map.exr"), &caustica::film::Image::from_fn(32, 16, texels)).unwrap();
+    let text = format!(
+        r#"[integrator]
+max_depth = -1
+rr_depth = 5
+samples_per_pixel = 16
+seed = 7
+[integrator.caustics]
+estimator = "mis"
+photons = 20000
+knn = 20
+[sensor]
+fov = 50
+fov_axis = "x"
+to_world = {{ look_at = {{ origin = [0, 1.1, 2.6], target = [0, 0.2, -0.2], up = [0, 1, 0] }} }}
+film = {{ width = 32, height = 24 }}
+[[shape]]
+type = "rectangle"
+to_world = [ {{ scale = 1.5 }}, {{ rotate = {{ axis = [1, 0, 0], angle = -90 }} }} ]
+bsdf = {{ type = "diffuse", reflectance = 0.6 }}
+[[shape]]
+type = "sphere"
+center = [0, 0.4, 0]
+radius = 0.3
+rings = 12
+segments = 24
+bsdf = {{ type = "dielectric", int_ior = 1.5 }}
+[[emitter]]
+type = "envmap"
+filename = "map.exr"
+scale = {scale:e}
+"#
+    );
+    let scene = Scene::from_toml_str(&text, &dir, std::path::Path::new(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    std::fs::remove_dir_all(&dir).ok();
+    scene
+}
+
+/// The three estimators on a loaded scene, printed like [`run_all`].
+fn run_scene(name: &str, scene: &Scene) -> [Run; 3] {
+    let runs = [run(scene, Estimator::Pt, PT_SPP), run(scene, Estimator::Pm, 16), run(scene, Estimator::Mis, 16)];
+    for (e, r) in ["pt", "pm", "mis"].iter().zip(&runs) {
+        eprintln!("{name:>18} {e:>3}: mean {:.5e} ± {:.5e}  {:.2} s  photons stored {}", r.mean.mean, r.mean.sigma(), r.seconds, r.stats.photons_stored);
+    }
+    runs
+}
+
+/// `s` divided by `k` (a mean and its variance in other units).
+fn scaled(s: Stat, k: f64) -> Stat {
+    Stat { mean: s.mean / k, var: s.var / (k * k) }
+}
+
+/// Environment maps at the edges: a smooth sky at scale 1e-6 and 1e6 renders the scale-1 image times
+/// the scale (every estimator; emission, the photon pass and the MIS weights are linear or scale-free in
+/// the map's radiance); an all-zero map renders black with every estimator and emits no photon; a single
+/// bright texel (a sun) over the glass sphere: mis agrees with pt, pm with mis.
+#[test]
+fn environment_map_extremes() {
+    let sky = |_x: u32, y: u32| glam::Vec3::splat(0.2 + (16 - y) as f32 / 16.0);
+    let base = run_scene("env-sky", &env_scene("env-sky", sky, 1.0));
+    for k in [1e-6, 1e6] {
+        let name = format!("env-sky-{k:e}");
+        let runs = run_scene(&name, &env_scene(&name, sky, k));
+        for (e, (r, b)) in ["pt", "pm", "mis"].iter().zip(runs.iter().zip(&base)) {
+            assert_agrees(&name, &format!("{e}/scale vs the scale-1 {e}"), scaled(r.mean, k), b.mean);
+        }
+    }
+
+    let zero = run_scene("env-zero", &env_scene("env-zero", |_, _| glam::Vec3::ZERO, 1.0));
+    for (e, r) in ["pt", "pm", "mis"].iter().zip(&zero) {
+        assert_eq!(r.mean.mean, 0.0, "env-zero: {e} is not black");
+        assert_eq!(r.stats.photons_stored, 0, "env-zero: {e} stored photons");
+    }
+
+    // The sun: one texel about 40° above the horizon (row 4 of 16), radiance 2e4, nothing else.
+    let sun = |x: u32, y: u32| if (x, y) == (8, 4) { glam::Vec3::splat(2e4) } else { glam::Vec3::ZERO };
+    let runs = run_scene("env-sun", &env_scene("env-sun", sun, 1.0));
+    assert!(runs[0].mean.mean > 0.0, "env-sun: black");
+    assert!(runs[1].stats.photons_stored > 100, "env-sun: the sun's photons miss the sphere ({} stored)", runs[1].stats.photons_stored);
+    assert_agrees("env-sun", "mis vs pt", runs[2].mean, runs[0].mean);
+    assert_agrees("env-sun", "pm vs mis", runs[1].mean, runs[2].mean);
+}
+
+/// Degenerate meshes render like the clean mesh: a floor given as an OBJ with zero-area triangles (a
+/// repeated vertex, three collinear vertices) and every triangle duplicated has the clean floor's mean
+/// with every estimator. (Meshes with no faces and non-finite vertices are refused: `mesh_load`.)
+#[test]
+fn degenerate_meshes_render_like_clean_ones() {
+    let dir = std::env::temp_dir().join(format!("caustica-stress-mesh-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let quad = "v -1.5 0 -1.5\nv 1.5 0 -1.5\nv 1.5 0 1.5\nv -1.5 0 1.5\nv 0 0 0\nv 0.5 0 0.5\n";
+    std::fs::write(dir.join("clean.obj"), format!("{quad}f 1 3 2\nf 1 4 3\n")).unwrap();
+    std::fs::write(dir.join("degenerate.obj"), format!("{quad}f 1 3 2\nf 1 4 3\nf 1 1 2\nf 5 6 3\nf 1 3 2\nf 1 4 3\nf 2 2 2\n")).unwrap();
+    let text = |file: &str| {
+        scene(&Params::default()).replacen(
+            "type = \"rectangle\"\nto_world = [ { scale = 1.5 }, { rotate = { axis = [1, 0, 0], angle = -90 } }, { scale = 1 }, { translate = [0, 0, 0] } ]",
+            &format!("type = \"obj\"\nfilename = \"{file}\""),
+            1,
+        )
+    };
+    assert!(text("x").contains("filename = \"x\""), "the template's floor changed");
+    let load = |file: &str| Scene::from_toml_str(&text(file), &dir, std::path::Path::new(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+    let (clean, degenerate) = (load("clean.obj"), load("degenerate.obj"));
+    std::fs::remove_dir_all(&dir).ok();
+    let clean = run_scene("clean-floor", &clean);
+    let degenerate = run_scene("degenerate-floor", &degenerate);
+    for (e, (d, c)) in ["pt", "pm", "mis"].iter().zip(degenerate.iter().zip(&clean)) {
+        assert_agrees("degenerate-floor", &format!("{e} vs the clean floor's {e}"), d.mean, c.mean);
+    }
+}
+
+/// Crop windows on the film's border (one corner pixel, the last column, the last row, the whole film)
+/// render exactly the full film's pixels there, with pt and with mis (photon pass included): a crop only
+/// selects pixels (camera.rs), it never changes their samples.
+#[test]
+fn crop_windows_on_the_border_render_the_full_films_pixels() {
+    let (w, h) = (32u32, 24u32);
+    for estimator in [Estimator::Pt, Estimator::Mis] {
+        let render_crop = |crop: Option<[u32; 4]>| {
+            let mut text = scene(&Params::default());
+            if let Some([x0, y0, x1, y1]) = crop {
+                text = text.replace(&format!("film = {{ width = {w}, height = {h} }}"), &format!("film = {{ width = {w}, height = {h}, crop = [{x0}, {y0}, {x1}, {y1}] }}"));
+                assert!(text.contains("crop = ["), "the template's film changed");
+            }
+            let scene = Scene::from_toml_str(&text, &common::repo_path("tests"), std::path::Path::new("crop")).unwrap();
+            let mut settings = RenderSettings::from_scene(&scene);
+            settings.estimator = estimator;
+            settings.spp = 4;
+            render_with_variance(&scene, backend(), &settings).image
+        };
+        let full = render_crop(None);
+        for crop in [[w - 1, h - 1, w, h], [0, 0, 1, 1], [w - 1, 0, w, h], [0, h - 1, w, h], [0, 0, w, h]] {
+            let part = render_crop(Some(crop));
+            assert_eq!((part.width(), part.height()), (crop[2] - crop[0], crop[3] - crop[1]), "{crop:?}");
+            for y in crop[1]..crop[3] {
+                for x in crop[0]..crop[2] {
+                    assert_eq!(part.get(x - crop[0], y - crop[1]), full.get(x, y), "{estimator:?} crop {crop:?}: pixel ({x}, {y})");
+                }
+            }
+        }
+    }
 }

@@ -16,7 +16,7 @@
 //! per-pixel sample variances of both renders plus a 1 % photon-map term for `pm`/`mis` (its noise is
 //! shared by all pixels, so the pixel variances do not see it).
 
-mod common;
+use crate::common;
 
 use caustica::render::RenderSettings;
 use caustica::scene::{Estimator, Scene};
