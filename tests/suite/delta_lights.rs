@@ -27,7 +27,7 @@
 //!
 //! Measured (32×32, 16 spp, seed 3): see the eprintln lines of each test.
 
-mod common;
+use crate::common;
 
 use caustica::camera::Camera;
 use caustica::math::Vec3;
