@@ -22,8 +22,10 @@ demo: build
 	cp out/cornell-caustics-converge/side-by-side.png out/cornell-caustics-side-by-side.png
 	@echo "wrote out/cornell-caustics.exr (.png, .json) and out/cornell-caustics-side-by-side.png (pt, pm, mis at equal time, RMSE against $(REF))"
 
+# `--tests`: the library's unit tests and tests/suite/ (examples are compiled by the check below instead of
+# being linked with thin LTO here).
 test: setup
-	$(CARGO) test --release
+	$(CARGO) test --release --tests
 	$(CARGO) check --release --no-default-features --all-targets
 	EMBREE4_TARGET_DIR=$(CURDIR)/target scripts/test-embree4
 
