@@ -7,6 +7,7 @@ pub mod args;
 pub mod bench;
 pub mod compare;
 pub mod converge;
+pub mod convert;
 pub mod info;
 pub mod merge;
 pub mod photon_args;
@@ -48,6 +49,8 @@ enum Command {
     Converge(converge::ConvergeArgs),
     /// Describe a scene without rendering it: triangles, materials, lights, photon pass, memory.
     Info(info::InfoArgs),
+    /// Convert a scene between Mitsuba 3 XML and TOML (formats from the file names).
+    Convert(convert::ConvertArgs),
 }
 
 /// How a subcommand ended without an error.
@@ -81,6 +84,7 @@ pub fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Converge(args) => converge::run(args),
         Command::Info(args) => info::run(args),
+        Command::Convert(args) => convert::run(args),
     };
     match result {
         Ok(Outcome::Done) => ExitCode::SUCCESS,

@@ -100,6 +100,7 @@
 
 mod build;
 mod clip;
+mod convert;
 mod delta_light;
 mod desc;
 mod error;
@@ -117,6 +118,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
+pub use convert::convert_scene;
 pub use error::SceneError;
 pub use hit_data::HitData;
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};

@@ -17,6 +17,7 @@ mod caustic_estimators;
 mod cli_bench;
 mod cli_errors;
 mod converge_cli;
+mod convert;
 mod delta_lights;
 mod embree_backend;
 mod film_io;

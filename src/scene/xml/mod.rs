@@ -57,6 +57,7 @@ mod params;
 mod places;
 mod tree;
 mod values;
+pub(crate) mod write;
 
 use std::collections::BTreeMap;
 use std::path::Path;

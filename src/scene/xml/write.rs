@@ -1,0 +1,267 @@
+//! The scene description (`desc`, as the TOML table a scene file deserialises from) → Mitsuba 3 XML text,
+//! the inverse of `convert`: what this writes, `read_str` reads back into the same description (numbers
+//! are written in Rust's shortest round-trip form, transforms as their list of operations), so a TOML →
+//! XML → TOML conversion builds the same scene, bit for bit.
+//!
+//! Written explicitly because Mitsuba's defaults differ from caustica's: the sample count (Mitsuba 4,
+//! caustica [`defaults::SAMPLES_PER_PIXEL`]) and the box reconstruction filter (Mitsuba's default is a
+//! Gaussian). caustica-only settings keep their documented forms: the caustic photon map's settings as
+//! the path integrator's `caustics_*` properties, a sphere's `rings` and `segments`. Mitsuba refuses both
+//! (it rejects properties no plugin reads); a scene without them is written as plain Mitsuba 3.
+//!
+//! The description must come from a scene that builds (`convert_scene` builds it first), so every key is
+//! one the format knows; a key this writer does not know is an error, never dropped.
+
+use std::fmt::Write as _;
+
+use toml::{Table, Value};
+
+use super::super::settings::defaults;
+
+/// The XML tag of each property key of the description (colours are `<rgb>` or `<float>` by value).
+fn tag_of(key: &str) -> Option<&'static str> {
+    Some(match key {
+        "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" => "float",
+        "width" | "height" | "rings" | "segments" => "integer",
+        "face_normals" | "flip_normals" | "sample_visible" => "boolean",
+        "filename" | "material" | "distribution" | "fov_axis" => "string",
+        "center" | "position" => "point",
+        "direction" => "vector",
+        "reflectance" | "specular_reflectance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
+        "int_ior" | "ext_ior" => "ior",
+        _ => return None,
+    })
+}
+
+/// A number in the shortest form that reads back to the same f64.
+fn num(v: &Value) -> Option<String> {
+    match v {
+        Value::Integer(i) => Some(i.to_string()),
+        Value::Float(f) => Some(format!("{f:?}")),
+        _ => None,
+    }
+}
+
+fn nums(v: &Value) -> Option<String> {
+    match v {
+        Value::Array(a) => a.iter().map(num).collect::<Option<Vec<_>>>().map(|v| v.join(", ")),
+        _ => num(v),
+    }
+}
+
+/// XML-escapes an attribute value.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+struct Writer {
+    out: String,
+    depth: usize,
+}
+
+type Result<T> = std::result::Result<T, String>;
+
+impl Writer {
+    fn line(&mut self, s: &str) {
+        let _ = writeln!(self.out, "{}{s}", "    ".repeat(self.depth));
+    }
+
+    fn open(&mut self, s: &str) {
+        self.line(s);
+        self.depth += 1;
+    }
+
+    fn close(&mut self, tag: &str) {
+        self.depth -= 1;
+        self.line(&format!("</{tag}>"));
+    }
+
+    /// A property element `name` = `v` (key path `at` for errors).
+    fn property(&mut self, at: &str, name: &str, v: &Value) -> Result<()> {
+        let bad = || format!("{at}.{name}: the value {v} cannot be written as Mitsuba XML");
+        let tag = tag_of(name).ok_or_else(|| format!("{at}.{name}: no Mitsuba XML property for this key"))?;
+        let n = esc(name);
+        let text = match (tag, v) {
+            ("colour", Value::Array(_)) => format!("<rgb name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
+            ("colour", _) => format!("<float name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+            ("ior", Value::String(s)) | ("string", Value::String(s)) => format!("<string name=\"{n}\" value=\"{}\"/>", esc(s)),
+            ("ior", _) => format!("<float name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+            ("boolean", Value::Boolean(b)) => format!("<boolean name=\"{n}\" value=\"{b}\"/>"),
+            ("point" | "vector", Value::Array(_)) => format!("<{tag} name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
+            ("float" | "integer", _) => format!("<{tag} name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+            _ => return Err(bad()),
+        };
+        self.line(&text);
+        Ok(())
+    }
+
+    /// `<transform name="to_world">` with the operations in the order listed (the first applied first).
+    fn transform(&mut self, at: &str, v: &Value) -> Result<()> {
+        let ops: Vec<&Value> = match v {
+            Value::Array(a) => a.iter().collect(),
+            one => vec![one],
+        };
+        self.open("<transform name=\"to_world\">");
+        for op in ops {
+            let Some((kind, x)) = op.as_table().and_then(|t| t.iter().next()) else { return Err(format!("{at}.to_world: not a transform table")) };
+            let bad = || format!("{at}.to_world: cannot write {kind} = {x}");
+            let text = match kind.as_str() {
+                "translate" => format!("<translate value=\"{}\"/>", nums(x).ok_or_else(bad)?),
+                "scale" => format!("<scale value=\"{}\"/>", nums(x).ok_or_else(bad)?),
+                "matrix" => format!("<matrix value=\"{}\"/>", nums(x).ok_or_else(bad)?),
+                "rotate" => {
+                    let t = x.as_table().ok_or_else(bad)?;
+                    let axis = t.get("axis").and_then(nums).ok_or_else(bad)?;
+                    let angle = t.get("angle").and_then(num).ok_or_else(bad)?;
+                    format!("<rotate value=\"{axis}\" angle=\"{angle}\"/>")
+                }
+                "look_at" => {
+                    let t = x.as_table().ok_or_else(bad)?;
+                    let get = |k: &str| t.get(k).and_then(nums).ok_or_else(bad);
+                    format!("<lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>", get("origin")?, get("target")?, get("up")?)
+                }
+                _ => return Err(bad()),
+            };
+            self.line(&text);
+        }
+        self.close("transform");
+        Ok(())
+    }
+
+    /// The properties and transform of a plugin table, skipping `type` and the keys in `skip`.
+    fn body(&mut self, at: &str, t: &Table, skip: &[&str]) -> Result<()> {
+        for (k, v) in t {
+            if k == "type" || skip.contains(&k.as_str()) {
+                continue;
+            }
+            if k == "to_world" {
+                self.transform(at, v)?;
+            } else {
+                self.property(at, k, v)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn kind<'a>(at: &str, t: &'a Table) -> Result<&'a str> {
+        t.get("type").and_then(Value::as_str).ok_or_else(|| format!("{at}: no type"))
+    }
+
+    /// A BSDF: a reference to a named one, or an inline plugin (`id` for a named one).
+    fn bsdf(&mut self, at: &str, v: &Value, id: Option<&str>) -> Result<()> {
+        match v {
+            Value::String(name) => {
+                self.line(&format!("<ref id=\"{}\"/>", esc(name)));
+                Ok(())
+            }
+            Value::Table(t) => {
+                let kind = Self::kind(at, t)?;
+                let id = id.map(|i| format!(" id=\"{}\"", esc(i))).unwrap_or_default();
+                self.open(&format!("<bsdf type=\"{}\"{id}>", esc(kind)));
+                self.body(at, t, &["bsdf", "bsdf_0", "bsdf_1"])?;
+                for slot in ["bsdf", "bsdf_0", "bsdf_1"] {
+                    if let Some(inner) = t.get(slot) {
+                        self.bsdf(&format!("{at}.{slot}"), inner, None)?;
+                    }
+                }
+                self.close("bsdf");
+                Ok(())
+            }
+            _ => Err(format!("{at}: not a bsdf")),
+        }
+    }
+
+    fn integrator(&mut self, t: Option<&Table>) -> Result<()> {
+        self.open("<integrator type=\"path\">");
+        if let Some(t) = t {
+            for k in ["max_depth", "rr_depth"] {
+                if let Some(v) = t.get(k) {
+                    self.line(&format!("<integer name=\"{k}\" value=\"{}\"/>", num(v).ok_or_else(|| format!("integrator.{k}"))?));
+                }
+            }
+            if let Some(c) = t.get("caustics").and_then(Value::as_table) {
+                for (k, v) in c {
+                    let line = match (k.as_str(), v) {
+                        ("estimator", Value::String(s)) => format!("<string name=\"caustics_estimator\" value=\"{}\"/>", esc(s)),
+                        ("photons" | "caustic_photons" | "knn", Value::Integer(i)) => format!("<integer name=\"caustics_{k}\" value=\"{i}\"/>"),
+                        ("max_radius", _) => format!("<float name=\"caustics_max_radius\" value=\"{}\"/>", num(v).ok_or_else(|| "integrator.caustics.max_radius".to_string())?),
+                        _ => return Err(format!("integrator.caustics.{k}: no Mitsuba XML property for this key")),
+                    };
+                    self.line(&line);
+                }
+            }
+        }
+        self.close("integrator");
+        Ok(())
+    }
+
+    fn sensor(&mut self, t: &Table, integrator: Option<&Table>) -> Result<()> {
+        self.open("<sensor type=\"perspective\">");
+        self.body("sensor", t, &["film"])?;
+        self.open("<sampler type=\"independent\">");
+        let get = |k: &str| integrator.and_then(|i| i.get(k)).and_then(num);
+        let spp = get("samples_per_pixel").unwrap_or_else(|| defaults::SAMPLES_PER_PIXEL.to_string());
+        self.line(&format!("<integer name=\"sample_count\" value=\"{spp}\"/>"));
+        if let Some(seed) = get("seed") {
+            self.line(&format!("<integer name=\"seed\" value=\"{seed}\"/>"));
+        }
+        self.close("sampler");
+        self.open("<film type=\"hdrfilm\">");
+        if let Some(film) = t.get("film").and_then(Value::as_table) {
+            self.body("sensor.film", film, &["crop"])?;
+            if let Some(Value::Array(c)) = film.get("crop") {
+                let c: Vec<i64> = c.iter().filter_map(Value::as_integer).collect();
+                let [x0, y0, x1, y1] = c[..] else { return Err("sensor.film.crop: needs four integers".into()) };
+                for (k, v) in [("crop_offset_x", x0), ("crop_offset_y", y0), ("crop_width", x1 - x0), ("crop_height", y1 - y0)] {
+                    self.line(&format!("<integer name=\"{k}\" value=\"{v}\"/>"));
+                }
+            }
+        }
+        self.line("<rfilter type=\"box\"/>");
+        self.close("film");
+        self.close("sensor");
+        Ok(())
+    }
+}
+
+/// Mitsuba 3 XML text of the scene description `doc`; `source` names where it came from (a comment).
+pub(crate) fn to_xml(doc: &Table, source: &str) -> std::result::Result<String, String> {
+    let mut w = Writer { out: String::new(), depth: 0 };
+    w.line("<?xml version=\"1.0\" encoding=\"utf-8\"?>");
+    w.line(&format!("<!-- written by caustica convert from {} -->", esc(source).replace("--", "- -")));
+    w.open("<scene version=\"3.0.0\">");
+    let integrator = doc.get("integrator").and_then(Value::as_table);
+    w.integrator(integrator)?;
+    let sensor = doc.get("sensor").and_then(Value::as_table).ok_or("a scene needs [sensor]")?;
+    w.sensor(sensor, integrator)?;
+    if let Some(bsdfs) = doc.get("bsdf").and_then(Value::as_table) {
+        for (name, b) in bsdfs {
+            w.bsdf(&format!("bsdf.{name}"), b, Some(name))?;
+        }
+    }
+    for (i, s) in doc.get("shape").and_then(Value::as_array).map_or(&[][..], Vec::as_slice).iter().enumerate() {
+        let at = format!("shape[{i}]");
+        let t = s.as_table().ok_or_else(|| format!("{at}: not a table"))?;
+        w.open(&format!("<shape type=\"{}\">", esc(Writer::kind(&at, t)?)));
+        w.body(&at, t, &["bsdf", "emitter"])?;
+        if let Some(b) = t.get("bsdf") {
+            w.bsdf(&format!("{at}.bsdf"), b, None)?;
+        }
+        if let Some(e) = t.get("emitter").and_then(Value::as_table) {
+            let eat = format!("{at}.emitter");
+            w.open(&format!("<emitter type=\"{}\">", esc(Writer::kind(&eat, e)?)));
+            w.body(&eat, e, &[])?;
+            w.close("emitter");
+        }
+        w.close("shape");
+    }
+    for (i, e) in doc.get("emitter").and_then(Value::as_array).map_or(&[][..], Vec::as_slice).iter().enumerate() {
+        let at = format!("emitter[{i}]");
+        let t = e.as_table().ok_or_else(|| format!("{at}: not a table"))?;
+        w.open(&format!("<emitter type=\"{}\">", esc(Writer::kind(&at, t)?)));
+        w.body(&at, t, &[])?;
+        w.close("emitter");
+    }
+    w.close("scene");
+    Ok(w.out)
+}
