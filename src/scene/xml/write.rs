@@ -37,6 +37,8 @@ fn tag_of(key: &str) -> Option<&'static str> {
 fn num(v: &Value) -> Option<String> {
     match v {
         Value::Integer(i) => Some(i.to_string()),
+        // Whole numbers without ".0", as integers are written (so TOML `3` and `3.0` write alike).
+        Value::Float(f) if f.fract() == 0.0 && f.abs() < 1e15 => Some(if f.is_sign_negative() && *f == 0.0 { "-0".into() } else { format!("{}", *f as i64) }),
         Value::Float(f) => Some(format!("{f:?}")),
         _ => None,
     }
@@ -107,7 +109,14 @@ impl Writer {
             let bad = || format!("{at}.to_world: cannot write {kind} = {x}");
             let text = match kind.as_str() {
                 "translate" => format!("<translate value=\"{}\"/>", nums(x).ok_or_else(bad)?),
-                "scale" => format!("<scale value=\"{}\"/>", nums(x).ok_or_else(bad)?),
+                "scale" => {
+                    // A uniform scale as one number, however it was given (`20` and `[20, 20, 20]`).
+                    let x = match x.as_array().map(Vec::as_slice) {
+                        Some([a, b, c]) if a == b && b == c => a,
+                        _ => x,
+                    };
+                    format!("<scale value=\"{}\"/>", nums(x).ok_or_else(bad)?)
+                }
                 "matrix" => format!("<matrix value=\"{}\"/>", nums(x).ok_or_else(bad)?),
                 "rotate" => {
                     let t = x.as_table().ok_or_else(bad)?;
