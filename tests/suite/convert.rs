@@ -91,3 +91,22 @@ fn mitsuba_written_xml_converts_to_toml_that_builds_its_scene() {
         assert_eq!(bits(&tiny_render(&input)), bits(&tiny_render(&out)), "{rel}: its TOML renders another image");
     }
 }
+
+/// Bad command lines: exit 2, the message names the flag or the file, and no output file is left.
+#[test]
+fn convert_errors_exit_2_and_write_nothing() {
+    let bin = env!("CARGO_BIN_EXE_caustica");
+    let scene = repo_path("scenes/cornell-caustics.toml");
+    let cases: [(Vec<String>, &str); 3] = [
+        (vec![scene.display().to_string(), "-o".into(), tmp("out.obj").display().to_string()], "must end in .xml"),
+        (vec![tmp("missing.toml").display().to_string(), "-o".into(), tmp("missing.xml").display().to_string()], "missing.toml"),
+        (vec![repo_path("tests/data/xml/hand-cornell.xml").display().to_string(), "-o".into(), tmp("params.toml").display().to_string(), "-D".into(), "nope=1".into()], "nope"),
+    ];
+    for (args, expected) in cases {
+        let out = std::process::Command::new(bin).arg("convert").args(&args).output().expect("runs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr:?} does not name {expected:?}");
+        assert!(!Path::new(&args[2]).exists(), "{args:?}: an output was written");
+    }
+}

@@ -24,6 +24,7 @@ mod film_io;
 mod fuzz;
 mod long_delta_chains;
 mod mesh_load;
+mod mitsuba_features;
 mod mutation;
 mod parts;
 mod photon_emission;
