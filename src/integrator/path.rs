@@ -121,7 +121,7 @@ impl<'a> PathTracer<'a> {
             let wo_world = -dir;
 
             // Emission from an area light that was hit.
-            if let Some(light_index) = scene.light_of_prim(hit.prim) {
+            if let Some(light_index) = lights.light_of_prim(hit.prim) {
                 let le = lights.le_area(hit.prim, si.ng, wo_world);
                 if le != Vec3::ZERO {
                     let light_pdf = || match prev {

@@ -4,7 +4,7 @@
 //!
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
-//!   triangle, and the triangle's hit record (`scene::HitData`, 128 B);
+//!   triangle;
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, plus 10% for the kd-tree's
@@ -36,7 +36,7 @@ impl MemoryEstimate {
     pub fn of(scene: &Scene, settings: &RenderSettings) -> Self {
         let m = &scene.mesh;
         let vertex = size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
-        let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1 + size_of::<crate::scene::HitData>() as u64));
+        let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1));
         let film = scene.camera.crop().area().saturating_mul(size_of::<PixelSum>() as u64);
         let photon_map = if photon_pass_needed(scene, settings.estimator).is_ok() { photon_map_bytes(settings.photons) } else { 0 };
         Self { mesh, film, photon_map }

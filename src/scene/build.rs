@@ -209,13 +209,11 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
     super::clip::check(ctx, &camera, &mesh, bounds, file.sensor.near_clip, file.sensor.far_clip)?;
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
-    let hit_data = super::HitData::build(&mesh, &tri_material, &tri_flat, &lights);
     Ok(Scene {
         path: name.to_path_buf(),
         mesh,
         tri_material,
         tri_flat,
-        hit_data,
         bsdfs,
         lights,
         camera,

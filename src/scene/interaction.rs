@@ -55,10 +55,9 @@ impl Scene {
     #[must_use]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         let i = hit.prim as usize;
-        debug_assert!(i < self.hit_data.len(), "hit on triangle {i} of {}", self.hit_data.len());
-        // One record per triangle, so a hit costs one cache miss (`hit_data`).
-        let t = &self.hit_data[i];
-        let [p0, p1, p2] = t.p;
+        debug_assert!(i < self.mesh.indices.len(), "hit on triangle {i} of {}", self.mesh.indices.len());
+        let idx = self.mesh.indices[i];
+        let [p0, p1, p2] = idx.map(|k| self.mesh.positions[k as usize]);
         let (u, v) = (hit.u, hit.v);
         let b0 = 1.0 - u - v;
         let p = b0 * p0 + u * p1 + v * p2;
@@ -68,7 +67,14 @@ impl Scene {
             .cross(p2 - p0)
             .try_normalize()
             .unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
-        let interpolated = if t.flat { None } else { (b0 * t.n[0] + u * t.n[1] + v * t.n[2]).try_normalize() };
+        let interpolated = if self.tri_flat[i] {
+            None
+        } else {
+            self.mesh
+                .normals
+                .as_ref()
+                .and_then(|n| (b0 * n[idx[0] as usize] + u * n[idx[1] as usize] + v * n[idx[2] as usize]).try_normalize())
+        };
         let mut ns = interpolated.unwrap_or(ng);
         if ns.dot(ng) < 0.0 {
             ns = -ns;
@@ -81,15 +87,7 @@ impl Scene {
             frame: Frame::from_normal(ns),
             uv: Vec2::new(u, v),
             prim: hit.prim,
-            material: t.material,
+            material: self.tri_material[i],
         }
-    }
-
-    /// The light that emissive triangle `prim` belongs to (`LightSet::light_of_prim`, read from the hit
-    /// record that [`Scene::interaction`] has just loaded).
-    #[must_use]
-    #[inline]
-    pub fn light_of_prim(&self, prim: u32) -> Option<usize> {
-        self.hit_data[prim as usize].light()
     }
 }

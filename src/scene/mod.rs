@@ -104,7 +104,6 @@ mod convert;
 mod delta_light;
 mod desc;
 mod error;
-mod hit_data;
 mod interaction;
 mod material;
 pub mod precision;
@@ -120,7 +119,6 @@ use std::path::{Path, PathBuf};
 pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
 pub use convert::convert_scene;
 pub use error::SceneError;
-pub use hit_data::HitData;
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
@@ -141,9 +139,6 @@ pub struct Scene {
     pub tri_material: Vec<u32>,
     /// Per triangle: true when the shading normal is the geometric normal (face_normals, rectangle, cube).
     pub tri_flat: Vec<bool>,
-    /// Per triangle: what a hit reads (positions, normals, material, light) in one record, built from the
-    /// fields above ([`HitData`]).
-    pub hit_data: Vec<HitData>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once).
     pub bsdfs: Vec<Bsdf>,
     pub lights: LightSet,
