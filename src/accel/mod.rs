@@ -10,13 +10,16 @@
 //! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
 //!
 //! [`build_accel`] wraps the chosen backend in [`rebase::Rebased`], which traces rays that start far from
-//! the scene (reflected by a sky-sized shape) from a point of the same line near it.
+//! the scene (reflected by a sky-sized shape) from a point of the same line near it; when far geometry
+//! surrounds the scene (a sky-sized shape), it builds the backend twice, over the near and over the far
+//! triangles, and rays that stay near the scene skip the far one ([`shell::Shelled`]).
 
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod rebase;
+pub mod shell;
 pub mod triangle;
 
 use crate::error::AccelError;
@@ -80,18 +83,32 @@ impl std::str::FromStr for BackendKind {
     }
 }
 
-/// Builds the chosen backend over a triangle soup. Only the chosen backend is built.
+/// Builds the chosen backend over a triangle soup. Only the chosen backend is built: once, or once over
+/// the near and once over the far triangles when far geometry surrounds the scene (`shell`).
 pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(positions, indices)?;
-    let inner: Box<dyn Accel> = match kind {
+    let inner: Box<dyn Accel> = match shell::split(positions, indices) {
+        Some(split) => {
+            let part = |ids: &[u32]| -> Vec<[u32; 3]> { ids.iter().map(|&i| indices[i as usize]).collect() };
+            let near = build_backend(kind, positions, &part(&split.near))?;
+            let far = build_backend(kind, positions, &part(&split.far))?;
+            Box::new(shell::Shelled::new(near, far, split))
+        }
+        None => build_backend(kind, positions, indices)?,
+    };
+    // Far rays (reflected by a sky-sized shape) are re-based near the scene: `rebase`.
+    Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
+}
+
+/// One backend over the soup, as it is.
+fn build_backend(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
+    Ok(match kind {
         BackendKind::Bvh => Box::new(bvh::Bvh::build(positions, indices)),
         #[cfg(feature = "embree")]
         BackendKind::Embree => Box::new(embree::EmbreeAccel::new(positions, indices)?),
         #[cfg(not(feature = "embree"))]
         BackendKind::Embree => return Err(AccelError::EmbreeNotCompiled),
-    };
-    // Far rays (reflected by a sky-sized shape) are re-based near the scene: `rebase`.
-    Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
+    })
 }
 
 /// The Embree version the build detected (e.g. `"3.13.5"`), or `None` without the `embree` feature.
