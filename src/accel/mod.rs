@@ -10,9 +10,10 @@
 //! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
 //!
 //! [`build_accel`] wraps the chosen backend in [`rebase::Rebased`], which traces rays that start far from
-//! the scene (reflected by a sky-sized shape) from a point of the same line near it; when far geometry
+//! the scene (reflected by a sky-sized shape) from points of the same line near it; when far geometry
 //! surrounds the scene (a sky-sized shape), it builds the backend twice, over the near and over the far
-//! triangles, and rays that stay near the scene skip the far one ([`shell::Shelled`]).
+//! triangles (each re-based on its own), and rays that stay near the scene skip the far one
+//! ([`shell::Shelled`]).
 
 pub mod brute;
 pub mod bvh;
@@ -87,28 +88,28 @@ impl std::str::FromStr for BackendKind {
 /// the near and once over the far triangles when far geometry surrounds the scene (`shell`).
 pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(positions, indices)?;
-    let inner: Box<dyn Accel> = match shell::split(positions, indices) {
+    match shell::split(positions, indices) {
         Some(split) => {
             let part = |ids: &[u32]| -> Vec<[u32; 3]> { ids.iter().map(|&i| indices[i as usize]).collect() };
-            let near = build_backend(kind, positions, &part(&split.near))?;
-            let far = build_backend(kind, positions, &part(&split.far))?;
-            Box::new(shell::Shelled::new(near, far, split))
+            let near = build_rebased(kind, positions, &part(&split.near))?;
+            let far = build_rebased(kind, positions, &part(&split.far))?;
+            Ok(Box::new(shell::Shelled::new(near, far, split)))
         }
-        None => build_backend(kind, positions, indices)?,
-    };
-    // Far rays (reflected by a sky-sized shape) are re-based near the scene: `rebase`.
-    Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
+        None => build_rebased(kind, positions, indices),
+    }
 }
 
-/// One backend over the soup, as it is.
-fn build_backend(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
-    Ok(match kind {
+/// One backend over the soup, wrapped so that far rays (reflected by a sky-sized shape) are re-based near
+/// the soup's detail (`rebase`).
+fn build_rebased(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
+    let inner: Box<dyn Accel> = match kind {
         BackendKind::Bvh => Box::new(bvh::Bvh::build(positions, indices)),
         #[cfg(feature = "embree")]
         BackendKind::Embree => Box::new(embree::EmbreeAccel::new(positions, indices)?),
         #[cfg(not(feature = "embree"))]
         BackendKind::Embree => return Err(AccelError::EmbreeNotCompiled),
-    })
+    };
+    Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
 }
 
 /// The Embree version the build detected (e.g. `"3.13.5"`), or `None` without the `embree` feature.

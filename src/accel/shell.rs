@@ -18,6 +18,11 @@
 //! and the triangle test's error in `t` is a few ulps of the vertex depths, far below `r/2`. Closest hits
 //! ask the near backend first, then the far one only up to the near hit; a tie in `t` goes to the lower
 //! triangle index, as in the oracle. Scenes without such a gap are built as one backend, as before.
+//!
+//! Each part is re-based on its own (`rebase`, thresholds from its own triangles): the far part's triangles
+//! are sky-sized, so a ray the sky reflects is traced against them in one query, and only the near part
+//! traces it in segments — those that pass the near triangles' box. Measured on `scripts/bench-sky`
+//! (ratio of Mrays/s with the sky to without, interleaved): 0.40× → 0.67× (Embree), 0.40× → 0.66× (BVH).
 
 use rayon::prelude::*;
 
