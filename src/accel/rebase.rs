@@ -57,9 +57,14 @@ impl Rebased {
     /// Wraps `inner`, built over the same soup.
     #[must_use]
     pub fn new(inner: Box<dyn Accel>, positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
+        let mut b = Aabb::EMPTY;
         let mut sizes: Vec<f32> = indices
             .iter()
-            .map(|t| Aabb::from_points(&t.map(|i| positions[i as usize])).extent().length())
+            .map(|t| {
+                let tb = Aabb::from_points(&t.map(|i| positions[i as usize]));
+                b = b.union(tb);
+                tb.extent().length()
+            })
             .collect();
         let far = if sizes.is_empty() {
             f32::INFINITY
@@ -69,7 +74,6 @@ impl Rebased {
             let far = FAR_PER_DETAIL * *median;
             if far > 0.0 { far } else { f32::INFINITY }
         };
-        let b = indices.iter().flatten().fold(Aabb::EMPTY, |b, &i| b.grow(positions[i as usize]));
         let pad = glam::DVec3::splat(1e-3 * f64::from(b.extent().max_element()) + 1e-30);
         Self {
             inner,
