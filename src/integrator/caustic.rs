@@ -44,6 +44,13 @@ fn photon_densities(q1_scale: f32, pdf_emit: f32, cos_theta: f32, q2: f32) -> (f
     }
 }
 
+/// A name for the gather's acceptance test `ωₚ·n_g · (ωₒ·n_g) > 0`, which depends on `n_g` and on the side
+/// of `ωₒ` only: equal normals and sides give equal keys ([`crate::photon::KdTree::knn_warm`]).
+fn acceptance_key(ng: Vec3, wo_above: bool) -> u64 {
+    let [x, y, z] = ng.to_array().map(f32::to_bits);
+    (u64::from(x) | u64::from(y) << 32) ^ u64::from(z).rotate_left(16) ^ u64::from(wo_above)
+}
+
 /// What T2 needs to remember about the non-delta vertex `x` a BSDF-sampled ray left from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CausticOrigin {
@@ -155,7 +162,9 @@ impl<'a> CausticEstimator<'a> {
         let wo_side = wo_world.dot(ng);
         // Directions decoded once per photon at build time (KdTree::directions), tested in the search.
         let directions = map.tree().directions();
-        map.tree().knn_by_index(si.p, self.knn, self.max_radius, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
+        // Warm-started from the recent queries of this tile with the same test (the same ng and side).
+        let key = acceptance_key(ng, wo_side > 0.0);
+        map.tree().knn_warm(si.p, self.knn, self.max_radius, key, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
         let r2 = scratch.r2() * self.area_scale;
         let delta_area = (std::f32::consts::PI * r2).max(self.min_area);
         let wo_local = si.frame.to_local(wo_world);

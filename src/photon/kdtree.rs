@@ -132,12 +132,36 @@ pub struct Neighbor {
 }
 
 /// The result of a k-NN query, reusable across queries (its buffer is kept, so steady-state queries do not
-/// allocate). Create one per thread with [`KnnResult::default`].
+/// allocate). Create one per thread with [`KnnResult::default`] (one per tile where results must not depend
+/// on which queries a thread made before: [`KdTree::knn_warm`] remembers recent queries here).
 #[derive(Clone, Debug, Default)]
 pub struct KnnResult {
     /// A 4-ary max-heap on `dist2` while searching; arbitrary order after [`KnnResult::sort_by_distance`].
     heap: Vec<Neighbor>,
     r2: f32,
+    /// The last [`RECENT`] queries of [`KdTree::knn_warm`] that found k photons (a ring).
+    recent: [Recent; RECENT],
+    next_recent: usize,
+}
+
+/// Remembered queries of [`KdTree::knn_warm`]. Eye paths of one pixel hit nearby points, but a path's
+/// later vertices come between two samples' first hits: a few entries keep the previous sample's.
+const RECENT: usize = 4;
+
+/// A query that found `k` photons within radius `r` of `p` under the acceptance test named `key`.
+#[derive(Clone, Copy, Debug)]
+struct Recent {
+    p: Vec3,
+    r: f32,
+    k: usize,
+    key: u64,
+}
+
+impl Default for Recent {
+    fn default() -> Self {
+        // k = 0 matches no query (k ≥ 1 is searched).
+        Recent { p: Vec3::ZERO, r: f32::INFINITY, k: 0, key: 0 }
+    }
 }
 
 impl KnnResult {
@@ -347,6 +371,43 @@ impl KdTree {
     /// [`KdTree::directions`]): the density estimate tests the pre-decoded direction without touching the
     /// photon record.
     pub fn knn_by_index<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, accept: F, out: &mut KnnResult) {
+        self.knn_bounded(p, k, max_radius, None, &accept, out);
+    }
+
+    /// [`KdTree::knn_by_index`] warm-started from the recent queries kept in `out` with the same `k` and
+    /// the same acceptance test, which the caller names by `key` (a key shared by two tests costs reruns,
+    /// never exactness). A
+    /// recent query that found k photons within `r` of `p₀` bounds this one's radius by `r + |p − p₀|`
+    /// (the triangle inequality: those k photons lie within it), so the search starts with that limit
+    /// instead of `max_radius`: it prunes from the first node, and photons beyond the bound never enter
+    /// the heap. The result is the exact k-NN whatever the bound: if k accepted photons lie within it,
+    /// the k nearest do too; if fewer do (rounding, or a `key` reused for another test), the search runs
+    /// again from `max_radius`. Only the order of the neighbours in the heap (and which of equidistant
+    /// photons at the k-th distance is kept) depends on the bound.
+    pub fn knn_warm<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
+        let bound = out
+            .recent
+            .iter()
+            .filter(|r| r.k == k && r.key == key)
+            .map(|r| r.r + r.p.distance(p))
+            .fold(f32::INFINITY, f32::min);
+        // Rounding of r and of the distance could put one of the k photons just outside: a relative margin
+        // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
+        let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
+        let warm = (bound2 < max_radius * max_radius).then_some(bound2);
+        self.knn_bounded(p, k, max_radius, warm, &accept, out);
+        if warm.is_some() && out.heap.len() < k {
+            self.knn_bounded(p, k, max_radius, None, &accept, out);
+        }
+        if k > 0 && out.heap.len() == k && p.is_finite() {
+            out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
+            out.next_recent = (out.next_recent + 1) % RECENT;
+        }
+    }
+
+    /// The search of [`KdTree::knn_by_index`], starting with the inclusive limit `warm` on d² instead of
+    /// `max_radius²` when given (`warm < max_radius²`; the result then holds the k nearest only if it holds k).
+    fn knn_bounded<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, accept: &F, out: &mut KnnResult) {
         out.heap.clear();
         out.r2 = 0.0;
         if k == 0 {
@@ -371,7 +432,7 @@ impl KdTree {
             nodes: &self.nodes,
             q: p.to_array(),
             k,
-            limit: max_r2,
+            limit: warm.unwrap_or(max_r2),
             heap: &mut out.heap,
             accept,
         };
