@@ -51,6 +51,23 @@ fn acceptance_key(ng: Vec3, wo_above: bool) -> u64 {
     (u64::from(x) | u64::from(y) << 32) ^ u64::from(z).rotate_left(16) ^ u64::from(wo_above)
 }
 
+/// Photons per batch of the density estimate's BSDF evaluation ([`CausticEstimator::gather`]).
+const BATCH: usize = 64;
+
+/// One batch of the density estimate: local directions, BSDF values and pdfs, photon indices.
+struct GatherBatch {
+    wi: [[f32; BATCH]; 3],
+    f: [[f32; BATCH]; 3],
+    pdf: [f32; BATCH],
+    index: [u32; BATCH],
+}
+
+impl Default for GatherBatch {
+    fn default() -> Self {
+        GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH] }
+    }
+}
+
 /// What T2 needs to remember about the non-delta vertex `x` a BSDF-sampled ray left from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CausticOrigin {
@@ -175,25 +192,39 @@ impl<'a> CausticEstimator<'a> {
         let photons = map.tree().photons();
         // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
-        for nb in scratch.neighbors() {
-            if nb.dist2 > r2 {
-                continue;
-            }
-            used += 1;
-            let ph = &photons[nb.index as usize];
-            let wi_local = si.frame.to_local(directions[nb.index as usize]);
-            let w1_f = match self.estimator {
-                Estimator::Mis => {
-                    let (f, q2) = bsdf_at_wo.f_pdf(wi_local);
-                    if f == Vec3::ZERO {
-                        continue;
-                    }
-                    let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), wi_local.z.abs(), q2);
-                    mis_weight_pair(q1, q2).0 * f
+        // In batches (structure of arrays on the stack): the photons' local directions, then the BSDF of
+        // all of them at once (`BsdfAtWo::f_pdf_many`, vectorised), then the weighted sum in the
+        // neighbours' order.
+        let mut batch = GatherBatch::default();
+        for chunk in scratch.neighbors().chunks(BATCH) {
+            let mut n = 0;
+            for nb in chunk {
+                if nb.dist2 > r2 {
+                    continue;
                 }
-                _ => bsdf_at_wo.f(wi_local),
-            };
-            sum += w1_f * ph.power();
+                let wi_local = si.frame.to_local(directions[nb.index as usize]);
+                (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
+                n += 1;
+            }
+            used += n as u32;
+            let [wx, wy, wz] = &batch.wi;
+            let [fr, fg, fb] = &mut batch.f;
+            bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
+            for j in 0..n {
+                let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
+                let ph = &photons[batch.index[j] as usize];
+                let w1_f = match self.estimator {
+                    Estimator::Mis => {
+                        if f == Vec3::ZERO {
+                            continue;
+                        }
+                        let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), batch.wi[2][j].abs(), batch.pdf[j]);
+                        mis_weight_pair(q1, q2).0 * f
+                    }
+                    _ => f,
+                };
+                sum += w1_f * ph.power();
+            }
         }
         Gather { l1: sum / delta_area, delta_area, photons: used }
     }
