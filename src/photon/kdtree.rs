@@ -384,7 +384,7 @@ impl KdTree {
     /// the k nearest do too; if fewer do (rounding, or a `key` reused for another test), the search runs
     /// again from `max_radius`. Only the order of the neighbours in the heap (and which of equidistant
     /// photons at the k-th distance is kept) depends on the bound.
-    pub fn knn_warm<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
+    pub fn knn_warm<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
         let bound = out
             .recent
             .iter()
@@ -395,9 +395,9 @@ impl KdTree {
         // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
         let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
         let warm = (bound2 < max_radius * max_radius).then_some(bound2);
-        self.knn_bounded(p, k, max_radius, warm, &accept, out);
+        self.knn_bounded(p, k, max_radius, warm, accept, out);
         if warm.is_some() && out.heap.len() < k {
-            self.knn_bounded(p, k, max_radius, None, &accept, out);
+            self.knn_bounded(p, k, max_radius, None, accept, out);
         }
         if k > 0 && out.heap.len() == k && p.is_finite() {
             out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
@@ -407,7 +407,7 @@ impl KdTree {
 
     /// The search of [`KdTree::knn_by_index`], starting with the inclusive limit `warm` on d² instead of
     /// `max_radius²` when given (`warm < max_radius²`; the result then holds the k nearest only if it holds k).
-    fn knn_bounded<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, accept: &F, out: &mut KnnResult) {
+    fn knn_bounded<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, accept: F, out: &mut KnnResult) {
         out.heap.clear();
         out.r2 = 0.0;
         if k == 0 {
@@ -457,7 +457,7 @@ struct Search<'a, F> {
     accept: F,
 }
 
-impl<F: Fn(usize) -> bool> Search<'_, F> {
+impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
     /// Visits the subtree rooted at `node` (height `h`) covering photons `[lo, hi)`.
     fn descend(&mut self, node: usize, h: u32, lo: usize, hi: usize) {
         if h == 0 {
@@ -485,15 +485,32 @@ impl<F: Fn(usize) -> bool> Search<'_, F> {
         }
     }
 
+    /// Offers the leaf's photons within the limit, in groups of [`LEAF_GROUP`]: the distances of a group
+    /// first (a loop without branches, vectorised), then only the photons within the limit of the group's
+    /// start (a bit mask) are tested again against the current limit and `accept`.
     #[inline]
     fn scan_leaf(&mut self, lo: usize, hi: usize) {
         let [qx, qy, qz] = self.q;
-        for (i, &[x, y, z]) in self.positions[lo..hi].iter().enumerate() {
-            let (dx, dy, dz) = (x - qx, y - qy, z - qz);
-            let d2 = (dx * dx + dy * dy) + dz * dz;
-            if d2 <= self.limit && (self.accept)(lo + i) {
-                self.offer(d2, (lo + i) as u32);
+        let mut start = lo;
+        for group in self.positions[lo..hi].chunks(LEAF_GROUP) {
+            let mut d2 = [0.0f32; LEAF_GROUP];
+            for (d, &[x, y, z]) in d2.iter_mut().zip(group) {
+                let (dx, dy, dz) = (x - qx, y - qy, z - qz);
+                *d = (dx * dx + dy * dy) + dz * dz;
             }
+            let limit = self.limit;
+            let mut inside = 0u32;
+            for (j, &d) in d2.iter().enumerate().take(group.len()) {
+                inside |= u32::from(d <= limit) << j;
+            }
+            while inside != 0 {
+                let j = inside.trailing_zeros() as usize;
+                inside &= inside - 1;
+                if d2[j] <= self.limit && (self.accept)(start + j) {
+                    self.offer(d2[j], (start + j) as u32);
+                }
+            }
+            start += group.len();
         }
     }
 
@@ -514,6 +531,10 @@ impl<F: Fn(usize) -> bool> Search<'_, F> {
         }
     }
 }
+
+/// Photons whose distances [`Search::scan_leaf`] computes at once (a leaf of [`DEFAULT_LEAF_SIZE`] is one
+/// group; a bit each in a `u32` mask).
+const LEAF_GROUP: usize = 16;
 
 /// Children per heap node. A 4-ary heap of k = 50 has 3 levels instead of 6 and the four children share a
 /// cache line, so a replacement has half the dependent loads of a binary heap (LaMarca & Ladner 1996, "The
