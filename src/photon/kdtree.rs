@@ -5,7 +5,7 @@
 //! most `leaf_size` photons). Each internal node splits its photons at the median along the longest axis of
 //! their tight bounding box. Photons are stored reordered so that every leaf is a contiguous range; the
 //! ranges are implicit (a node covers `[lo, hi)` and splits at `lo + (hi − lo)/2`). A node stores the tight
-//! bounding boxes of its two children (48 bytes), so one node read decides which children to visit and in
+//! bounding boxes of its two children (64 bytes, one cache line; SIMD vectors), so one node read decides which children to visit and in
 //! which order. Nodes are laid out in depth-first pre-order: the left child follows its parent directly and
 //! the right child sits `2^(h−1)` further (h = levels below the node). The build is parallel (rayon::join
 //! over the two halves above a size threshold; `select_nth_unstable_by` per node).
@@ -27,11 +27,11 @@
 use rayon::prelude::*;
 
 use super::record::Photon;
-use crate::math::{Aabb, Vec3};
+use crate::math::{Aabb, Vec3, Vec3A};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
 /// --leaf N` at k = 50: 16, 24 and 32 are within noise of each other and ~5% faster than 8 (4: ~15% slower);
-/// 16 keeps leaves small for smaller k. Nodes then cost ~3.2 bytes per photon.
+/// 16 keeps leaves small for smaller k. Nodes (64 bytes) then cost 4 to 8 bytes per photon (a leaf holds 8 to 16).
 pub const DEFAULT_LEAF_SIZE: usize = 16;
 
 /// Below this many photons a subtree is built on the current thread.
@@ -98,11 +98,35 @@ impl Bounds {
     }
 }
 
-/// An internal node: the tight boxes of its left and right children.
+/// A child's tight box as two SIMD vectors (glam's `Vec3A`, one SSE register each), so that the box
+/// distance is a handful of vector instructions: the same operations in the same order as
+/// [`Bounds::dist2`], hence the same f32 value.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
+struct NodeBox {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl NodeBox {
+    fn new(b: Bounds) -> Self {
+        NodeBox { min: Vec3A::from_array(b.min), max: Vec3A::from_array(b.max) }
+    }
+
+    /// [`Bounds::dist2`] (no NaN arises: the coordinates and the query are finite or, for the empty box, ∓∞).
+    #[inline]
+    fn dist2(&self, q: Vec3A) -> f32 {
+        let d = (self.min - q).max(q - self.max).max(Vec3A::ZERO);
+        let d = d * d;
+        (d.x + d.y) + d.z
+    }
+}
+
+/// An internal node: the tight boxes of its left and right children (one cache line).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct Node {
-    children: [Bounds; 2],
+    children: [NodeBox; 2],
 }
 
 /// A balanced kd-tree over photons. Immutable once built; queries are `&self` and thread-safe.
@@ -245,7 +269,7 @@ fn build_recursive(photons: &mut [Photon], bounds: Bounds, nodes: &mut [Node], h
         (bounds_of(left), bounds_of(right))
     };
     let (node, rest) = nodes.split_first_mut().expect("h >= 1 so there is a node");
-    *node = Node { children: [bl, br] };
+    *node = Node { children: [NodeBox::new(bl), NodeBox::new(br)] };
     let (left_nodes, right_nodes) = rest.split_at_mut((1usize << (h - 1)) - 1);
     if big {
         rayon::join(
@@ -283,7 +307,7 @@ impl KdTree {
         }
         let mut nodes = vec![
             Node {
-                children: [Bounds::EMPTY; 2]
+                children: [NodeBox::new(Bounds::EMPTY); 2]
             };
             (1usize << depth) - 1
         ];
@@ -465,7 +489,8 @@ impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
             return;
         }
         let [bl, br] = &self.nodes[node].children;
-        let (dl, dr) = (bl.dist2(&self.q), br.dist2(&self.q));
+        let q = Vec3A::from_array(self.q);
+        let (dl, dr) = (bl.dist2(q), br.dist2(q));
         let mid = lo + (hi - lo) / 2;
         let (left, right) = (node + 1, node + (1usize << (h - 1)));
         if dl <= dr {
@@ -632,14 +657,17 @@ mod tests {
         fn flat(b: &Bounds) -> [f32; 6] {
             [b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]]
         }
+        fn flat_node(b: &NodeBox) -> [f32; 6] {
+            flat(&Bounds { min: b.min.to_array(), max: b.max.to_array() })
+        }
         fn rec(t: &KdTree, node: usize, h: u32, lo: usize, hi: usize) {
             if h == 0 {
                 return;
             }
             let [bl, br] = &t.nodes[node].children;
             let mid = lo + (hi - lo) / 2;
-            assert_eq!(flat(bl), tight(&t.photons[lo..mid]));
-            assert_eq!(flat(br), tight(&t.photons[mid..hi]));
+            assert_eq!(flat_node(bl), tight(&t.photons[lo..mid]));
+            assert_eq!(flat_node(br), tight(&t.photons[mid..hi]));
             if lo < mid && mid < hi {
                 assert!((0..3).any(|a| bl.max[a] <= br.min[a]), "children not separated by any axis");
             }
@@ -680,7 +708,8 @@ mod tests {
 
     #[test]
     fn node_layout_is_compact() {
-        assert_eq!(std::mem::size_of::<Node>(), 48);
+        assert_eq!(std::mem::size_of::<Node>(), 64);
+        assert_eq!(std::mem::align_of::<Node>(), 64);
     }
 
     #[test]
@@ -690,6 +719,15 @@ mod tests {
         assert_eq!(b.dist2(&[2.0, 1.0, 4.0]), 2.0);
         assert_eq!(b.dist2(&[0.5, 0.0, 2.5]), 1.0);
         assert_eq!(Bounds::EMPTY.dist2(&[0.0; 3]), f32::INFINITY);
+        assert_eq!(NodeBox::new(Bounds::EMPTY).dist2(Vec3A::ZERO), f32::INFINITY);
+        // The node's SIMD distance is the scalar one, bit for bit.
+        let mut s = crate::sampler::Sampler::for_key(4, 4, 4);
+        for _ in 0..10_000 {
+            let mut r = || 8.0 * s.next_1d() - 4.0;
+            let bx = Bounds::EMPTY.grow(&[r(), r(), r()]).grow(&[r(), r(), r()]);
+            let q = [r(), r(), r()];
+            assert_eq!(bx.dist2(&q).to_bits(), NodeBox::new(bx).dist2(Vec3A::from_array(q)).to_bits());
+        }
         assert_eq!(b.largest_axis(), 0);
         assert_eq!(Bounds::EMPTY.largest_axis(), 0);
     }
