@@ -27,7 +27,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{photon_chain_reaches, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -103,6 +103,8 @@ pub struct CausticEstimator<'a> {
     /// `s ∈ (0, 1]`: the estimate uses the photons within `r² = s·r²_kNN` and `ΔA = π·s·r²_kNN` (the
     /// progressive schedule of method.md §6; 1 = the plain k-NN estimate).
     area_scale: f32,
+    /// Where no photon lies within `max_radius` (`None` without photons or for an infinite radius).
+    occupancy: Option<OccupancyGrid>,
 }
 
 /// Lower bound on ΔA (method.md §3): `π·r_floor²` with `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R)`, R the
@@ -122,7 +124,8 @@ impl<'a> CausticEstimator<'a> {
     #[must_use]
     pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32, scene_radius: f32) -> Self {
         let map = if estimator == Estimator::Pt { None } else { map };
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, scene_radius), area_scale: 1.0 }
+        let occupancy = map.and_then(|m| OccupancyGrid::new(m.tree(), max_radius));
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, scene_radius), area_scale: 1.0, occupancy }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
@@ -175,6 +178,12 @@ impl<'a> CausticEstimator<'a> {
         let Some(map) = self.map else {
             return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0 };
         };
+        if self.occupancy.as_ref().is_some_and(|grid| !grid.may_hold_photons_near(si.p)) {
+            // No photon within max_radius: what the search would return (no photon, r² = max_radius²),
+            // for one memory read.
+            let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius);
+            return Gather { l1: Vec3::ZERO, delta_area, photons: 0 };
+        }
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
         // Directions decoded once per photon at build time (KdTree::directions), tested in the search.
@@ -182,8 +191,7 @@ impl<'a> CausticEstimator<'a> {
         // Warm-started from the recent queries of this tile with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
         map.tree().knn_warm(si.p, self.knn, self.max_radius, key, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
-        let r2 = scratch.r2() * self.area_scale;
-        let delta_area = (std::f32::consts::PI * r2).max(self.min_area);
+        let (r2, delta_area) = self.estimate_area(scratch.r2());
         let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
@@ -227,6 +235,12 @@ impl<'a> CausticEstimator<'a> {
             }
         }
         Gather { l1: sum / delta_area, delta_area, photons: used }
+    }
+
+    /// The squared radius `s·r²_kNN` of the estimate and its area ΔA (clamped, method.md §3, §6).
+    fn estimate_area(&self, r2_knn: f32) -> (f32, f32) {
+        let r2 = r2_knn * self.area_scale;
+        (r2, (std::f32::consts::PI * r2).max(self.min_area))
     }
 
     /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,
