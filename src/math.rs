@@ -247,11 +247,36 @@ pub fn spawn_t_min(p_error: Vec3, dir: Vec3) -> f32 {
 /// by its largest component); `None` for zero or non-finite `v`.
 #[must_use]
 pub fn normalize_any(v: Vec3) -> Option<Vec3> {
+    length_and_direction(v).map(|(_, d)| d)
+}
+
+/// `(|v|, v/|v|)` for any finite non-zero `v`: directly when `|v|²` is a normal f32 (the common case,
+/// bit-identical to glam's `length`/`normalize`), else after dividing `v` by its largest component, so that
+/// a vector of length 10⁻²⁴ (the cross product of a 10⁻¹²-sized triangle's edges, whose square is below
+/// f32's range) keeps its exact direction and length. `None` for zero or non-finite `v`.
+#[must_use]
+pub fn length_and_direction(v: Vec3) -> Option<(f32, Vec3)> {
+    let l2 = v.length_squared();
+    if (f32::MIN_POSITIVE..f32::MAX).contains(&l2) {
+        let l = l2.sqrt();
+        return Some((l, v * l.recip()));
+    }
     let m = v.abs().max_element();
     if !(m > 0.0 && m.is_finite()) {
         return None;
     }
-    (v / m).try_normalize()
+    let (l, d) = ((v / m).length(), (v / m).normalize());
+    let l = l * m;
+    l.is_finite().then_some((l, d))
+}
+
+/// A triangle's unit geometric normal `(p₁−p₀)×(p₂−p₀)/|…|` and its area `|…|/2`, at any scale f32 holds
+/// ([`length_and_direction`]); `None` for a zero-area (or non-finite) triangle. The one rule for both,
+/// used by the interaction, the area lights and the vertex normals: a light of side 10⁻¹² was dropped as
+/// zero-area, and its hit points got the ray's direction as normal, when `|…|²` underflowed.
+#[must_use]
+pub fn triangle_normal_area(p: [Vec3; 3]) -> Option<(Vec3, f32)> {
+    length_and_direction((p[1] - p[0]).cross(p[2] - p[0])).map(|(l, n)| (n, 0.5 * l))
 }
 
 /// Smallest f32 greater than `v` (∞ stays ∞; −0 is treated as +0).
@@ -331,6 +356,25 @@ impl Rect {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A triangle's normal and area at the ends of f32's range: scaled by 10⁻¹⁷ (|e₁×e₂|² ≈ 10⁻⁶⁸
+    /// underflows) and by 10¹⁷ (≈ 10⁶⁸ overflows) they are the unit triangle's, exactly scaled; at unit
+    /// size bit-identical to glam's `length`/`normalize`; a zero-area triangle has none.
+    #[test]
+    fn triangle_normal_and_area_at_any_scale() {
+        let unit = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.5)];
+        let (n1, a1) = triangle_normal_area(unit).unwrap();
+        let c = (unit[1] - unit[0]).cross(unit[2] - unit[0]);
+        assert_eq!((n1, a1), (c.normalize(), 0.5 * c.length()));
+        for s in [1e-17f32, 1e-12, 1e12, 1e17] {
+            let (n, a) = triangle_normal_area(unit.map(|p| p * s)).unwrap_or_else(|| panic!("scale {s}: no normal"));
+            assert!((n - n1).abs().max_element() < 1e-6, "scale {s}: normal {n} vs {n1}");
+            assert!((f64::from(a) / (f64::from(a1) * f64::from(s) * f64::from(s)) - 1.0).abs() < 1e-5, "scale {s}: area {a}");
+        }
+        assert!(triangle_normal_area([Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]).is_none());
+        assert!(triangle_normal_area([Vec3::ZERO, Vec3::X, Vec3::splat(f32::NAN)]).is_none());
+        assert_eq!(normalize_any(Vec3::new(3e-30, 4e-30, 0.0)), Some(Vec3::new(0.6, 0.8, 0.0)));
+    }
 
     #[test]
     fn frame_is_orthonormal_and_round_trips() {

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
-use crate::integrator::{CausticEstimator, PathStats, PathTracer};
+use crate::integrator::{CausticEstimator, PathStats, PathTracer, Q1Range};
 use crate::photon::kdtree::KnnResult;
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
@@ -156,6 +156,8 @@ pub struct RenderPhaseStats {
     pub photons_stored: u64,
     pub photon_bytes: u64,
     pub photon_chains_capped: u64,
+    /// The smallest and largest q₁ that reached the MIS function (`mis` only; [`Q1Range`]).
+    pub mis_q1_range: Option<[f32; 2]>,
     /// Passes this process rendered (fewer than `passes` when it rendered a share of the passes).
     pub passes_rendered: u32,
     pub partial: bool,
@@ -268,6 +270,7 @@ pub fn render_share(
 ) -> Result<RenderPhaseStats, RenderError> {
     let start = Instant::now();
     let mut stats = RenderPhaseStats::default();
+    let mut q1_range = Q1Range::default();
     let photons_needed = photon_pass_needed(scene, settings.estimator);
     if let Err(reason) = &photons_needed {
         stats.skipped.push(SkippedPhase { phase: "caustic photon pass".into(), reason: reason.clone() });
@@ -369,6 +372,8 @@ pub fn render_share(
             film.merge_tile(&buf)?;
             stats.rays_traced += ps.rays;
             stats.knn_queries += ps.knn_queries;
+            q1_range.merge(&ps.q1);
+            stats.mis_q1_range = q1_range.get();
         }
         stats.seconds_render += t_pass.elapsed().as_secs_f64();
         if unfinished && (cancel.load(Ordering::Relaxed) || finished_tiles == 0) {

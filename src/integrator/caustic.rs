@@ -30,6 +30,7 @@ use crate::photon::kdtree::KnnResult;
 use crate::photon::{photon_chain_reaches, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
+use serde::{Deserialize, Serialize};
 
 /// `(q₁, q₂)` of one photon's path at `x` (method.md §4): `q₁ = q1_scale·p_emit·|cos θ|` with
 /// `q1_scale = N·ΔA/α`, and `q₂` the BSDF pdf of the photon's direction. A delta light's photon
@@ -68,6 +69,44 @@ impl Default for GatherBatch {
     }
 }
 
+/// The smallest and largest q₁ (method.md §4) that reached the MIS function in a render: finite, positive
+/// values only (a delta light's `q₁ = ∞` and a grazing photon's `q₁ = 0` are its rules' limits, not
+/// numbers it must survive). The stats report it (`mis_q1_range`), so a run shows how far from 1 the
+/// weight function's inputs went on real scenes (issue 13 §3). Empty for `pt` and `pm`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Q1Range {
+    pub min: f32,
+    pub max: f32,
+}
+
+impl Default for Q1Range {
+    fn default() -> Self {
+        Self { min: f32::INFINITY, max: 0.0 }
+    }
+}
+
+impl Q1Range {
+    /// Records one q₁ (two compares; NaN, 0 and ∞ are left out).
+    #[inline]
+    pub fn add(&mut self, q1: f32) {
+        if q1 > 0.0 && q1 < f32::INFINITY {
+            self.min = self.min.min(q1);
+            self.max = self.max.max(q1);
+        }
+    }
+
+    pub fn merge(&mut self, o: &Q1Range) {
+        self.min = self.min.min(o.min);
+        self.max = self.max.max(o.max);
+    }
+
+    /// `[min, max]`, or `None` if no q₁ was recorded.
+    #[must_use]
+    pub fn get(&self) -> Option<[f32; 2]> {
+        (self.min <= self.max).then_some([self.min, self.max])
+    }
+}
+
 /// What T2 needs to remember about the non-delta vertex `x` a BSDF-sampled ray left from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CausticOrigin {
@@ -90,6 +129,8 @@ pub struct Gather {
     pub delta_area: f32,
     /// Number of photons that entered the estimate.
     pub photons: u32,
+    /// The q₁ of its photons (`mis` only).
+    pub q1: Q1Range,
 }
 
 /// The caustic estimator of one render pass.
@@ -176,13 +217,13 @@ impl<'a> CausticEstimator<'a> {
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut KnnResult) -> Gather {
         let Some(map) = self.map else {
-            return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0 };
+            return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0, q1: Q1Range::default() };
         };
         if self.occupancy.as_ref().is_some_and(|grid| !grid.may_hold_photons_near(si.p)) {
             // No photon within max_radius: what the search would return (no photon, r² = max_radius²),
             // for one memory read.
             let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius);
-            return Gather { l1: Vec3::ZERO, delta_area, photons: 0 };
+            return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
         }
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
@@ -197,6 +238,7 @@ impl<'a> CausticEstimator<'a> {
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
+        let mut q1_range = Q1Range::default();
         let photons = map.tree().photons();
         // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
@@ -227,6 +269,7 @@ impl<'a> CausticEstimator<'a> {
                             continue;
                         }
                         let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), batch.wi[2][j].abs(), batch.pdf[j]);
+                        q1_range.add(q1);
                         mis_weight_pair(q1, q2).0 * f
                     }
                     _ => f,
@@ -234,7 +277,7 @@ impl<'a> CausticEstimator<'a> {
                 sum += w1_f * ph.power();
             }
         }
-        Gather { l1: sum / delta_area, delta_area, photons: used }
+        Gather { l1: sum / delta_area, delta_area, photons: used, q1: q1_range }
     }
 
     /// The squared radius `s·r²_kNN` of the estimate and its area ΔA (clamped, method.md §3, §6).
@@ -246,9 +289,9 @@ impl<'a> CausticEstimator<'a> {
     /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,
     /// whose light point a photon would leave with density `pdf_emit` (0 for emitters without photons).
     /// T1 cannot make the path when `pdf_emit` is 0, or when the photon pass cuts a chain that long
-    /// ([`photon_chain_reaches`]): then `w₂ = 1`.
+    /// ([`photon_chain_reaches`]): then `w₂ = 1`. The q₁ that reached the MIS function is added to `q1_seen`.
     #[must_use]
-    pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32) -> f32 {
+    pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32, q1_seen: &mut Q1Range) -> f32 {
         if self.map.is_none() || !photon_chain_reaches(delta_vertices) || pdf_emit.is_nan() || pdf_emit <= 0.0 {
             return 1.0;
         }
@@ -257,6 +300,7 @@ impl<'a> CausticEstimator<'a> {
             Estimator::Pm => 0.0,
             Estimator::Mis => {
                 let q1 = self.q1(pdf_emit, origin.cos_theta, origin.delta_area, origin.alpha);
+                q1_seen.add(q1);
                 mis_weight_pair(q1, origin.pdf_w).1
             }
         }

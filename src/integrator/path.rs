@@ -6,7 +6,7 @@
 //! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
 //! through `x S⁺ L` can be weighted by `w₂`.
 
-use super::caustic::{CausticEstimator, CausticOrigin};
+use super::caustic::{CausticEstimator, CausticOrigin, Q1Range};
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
 use crate::light::Light;
@@ -17,18 +17,21 @@ use crate::sampling::mis::power_heuristic;
 use crate::scene::Scene;
 
 /// Counters a worker accumulates; summed over tiles for the stats.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathStats {
     /// Closest-hit and shadow rays.
     pub rays: u64,
     /// k-NN queries (density estimates).
     pub knn_queries: u64,
+    /// The q₁ that reached the MIS function, in T1 and T2 (`mis` only).
+    pub q1: Q1Range,
 }
 
 impl PathStats {
     pub fn add(&mut self, o: &PathStats) {
         self.rays += o.rays;
         self.knn_queries += o.knn_queries;
+        self.q1.merge(&o.q1);
     }
 }
 
@@ -66,13 +69,14 @@ impl<'a> PathTracer<'a> {
     /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length);
     /// `pdf_emit`: the density with which the photon pass would start a photon where this emission was
     /// found (0 for emitters without photons; evaluated only for `x S⁺ L`).
-    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32) -> f32 {
+    /// `q1_seen`: where T2's q₁ is recorded (the stats).
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, q1_seen: &mut Q1Range) -> f32 {
         match prev {
             Vertex::Camera => 1.0,
             Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
             Vertex::Delta => match caustic {
                 None => 1.0,
-                Some(origin) => self.caustics.t2_weight(origin, pdf_emit(), delta_vertices),
+                Some(origin) => self.caustics.t2_weight(origin, pdf_emit(), delta_vertices, q1_seen),
             },
         }
     }
@@ -112,7 +116,7 @@ impl<'a> PathTracer<'a> {
                         (Light::Env(env), Some(em)) => em.pdf_emit_env(index, env, dir),
                         _ => 0.0,
                     };
-                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices);
+                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices, &mut stats.q1);
                     l += beta * w * le;
                 }
                 break;
@@ -129,7 +133,7 @@ impl<'a> PathTracer<'a> {
                         _ => 0.0,
                     };
                     let pdf_emit = || self.caustics.emission().map_or(0.0, |em| em.pdf_emit_area(light_index, si.p, si.ng, wo_world));
-                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices) * le;
+                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices, &mut stats.q1) * le;
                 }
             }
             if depth >= max_depth {
@@ -168,6 +172,7 @@ impl<'a> PathTracer<'a> {
             if non_delta && self.caustics.active() {
                 let g = self.caustics.gather(&si, wo_world, bsdf, alpha, knn);
                 stats.knn_queries += 1;
+                stats.q1.merge(&g.q1);
                 l += beta * g.l1;
                 delta_area = Some(g.delta_area);
             }

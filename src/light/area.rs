@@ -4,7 +4,7 @@
 
 use crate::sampling::warp::{square_to_cosine_hemisphere, square_to_uniform_triangle};
 use super::{luminance, EmissionSample, LightSample};
-use crate::math::{barycentric_point_error, offset_ray_origin, Frame, Vec2, Vec3};
+use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, triangle_normal_area, Frame, Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -52,15 +52,9 @@ impl AreaLight {
         let triangles: Vec<LightTriangle> = triangles
             .into_iter()
             .map(|(prim, p)| {
-                let c = (p[1] - p[0]).cross(p[2] - p[0]);
-                let len = c.length();
-                let ok = len > 0.0 && len.is_finite();
-                areas.push(if ok { 0.5 * len } else { 0.0 });
-                LightTriangle {
-                    prim,
-                    p,
-                    n: if ok { c / len } else { Vec3::ZERO },
-                }
+                let (n, area) = triangle_normal_area(p).unwrap_or((Vec3::ZERO, 0.0));
+                areas.push(area);
+                LightTriangle { prim, p, n }
             })
             .collect();
         let area = areas.iter().map(|&a| f64::from(a)).sum::<f64>() as f32;
@@ -176,9 +170,11 @@ impl AreaLight {
         let (i, _, _) = self.distribution.as_ref()?.sample_discrete(u_tri);
         let (t, p, b) = self.point_on(i, u_pos);
         let (dir, pdf_w_dir) = direction(p, t.n)?;
-        let origin = offset_ray_origin(p, barycentric_point_error(b, t.p), t.n, dir);
+        let p_error = barycentric_point_error(b, t.p);
+        let origin = offset_ray_origin(p, p_error, t.n, dir);
         Some(EmissionSample {
             origin,
+            t_min: spawn_t_min(p_error, dir),
             n: t.n,
             dir,
             le: self.radiance,

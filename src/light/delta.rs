@@ -230,7 +230,7 @@ impl PointLight {
         if !(pdf_w_dir > 0.0 && pdf_w_dir.is_finite()) || le == Vec3::ZERO {
             return None;
         }
-        Some(EmissionSample { origin: self.position, n: dir, dir, le, pdf_a: 1.0, pdf_w_dir })
+        Some(EmissionSample { origin: self.position, n: dir, dir, le, pdf_a: 1.0, pdf_w_dir, t_min: 0.0 })
     }
 }
 

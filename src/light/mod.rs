@@ -83,6 +83,11 @@ pub struct EmissionSample {
     /// Density of `dir` per steradian: `cos θ′/π` (area light, cosine-weighted) or the light's
     /// importance-sampling pdf (infinite lights); 1 for a directional light (the one direction).
     pub pdf_w_dir: f32,
+    /// The near end of the photon's first ray: for an area light [`crate::math::spawn_t_min`] of the
+    /// sampled point, the rule of every ray spawned from a surface (Embree 3 reports the light's own
+    /// triangle at t = −0 for a ray leaving a 10⁻⁹-sized light at the origin, which lost every photon);
+    /// 0 for the other lights, whose origins lie on no surface.
+    pub t_min: f32,
 }
 
 /// Errors from building a light (loading an environment map). Each names the file.
@@ -242,6 +247,7 @@ fn disk_emission(omega: Vec3, le: Vec3, pdf_w_dir: f32, u_disk: Vec2, center: Ve
     let d = square_to_uniform_disk_concentric(u_disk);
     let origin = center + distance * omega + radius * (d.x * frame.s + d.y * frame.t);
     Some(EmissionSample {
+        t_min: 0.0,
         origin,
         n: -omega,
         dir: -omega,

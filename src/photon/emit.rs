@@ -243,7 +243,7 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
     let (es, pdf_emit) = (start.emission, start.pdf_emit);
     // Power·N = Le·|cos θ′| / p: method.md §2 with the exact sampling pdf (1/N applied by the caller).
     let mut power = start.power_n;
-    let mut ray = crate::math::Ray::new(es.origin, es.dir);
+    let mut ray = crate::math::Ray::segment(es.origin, es.dir, es.t_min, f32::INFINITY);
     // Only a first hit on a delta surface makes a caustic photon: a ray that misses every delta
     // triangle's box is discarded without tracing (the same photons are stored, at a fraction of the
     // rays when the delta objects are small as seen from the lights).

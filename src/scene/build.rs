@@ -171,13 +171,10 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         tri_flat.extend(std::iter::repeat_n(plan.flat, n));
         if let Some(radiance) = plan.radiance {
             let triangles: Vec<(u32, [Vec3; 3])> = (0..n).map(|i| ((base + i) as u32, placed.triangle(i))).collect();
-            let area: f32 = triangles
-                .iter()
-                .map(|(_, [p0, p1, p2])| 0.5 * (*p1 - *p0).cross(*p2 - *p0).length())
-                .sum();
+            let light = AreaLight::new(radiance, triangles);
             // Lights that cannot emit anything are left out (zero radiance or zero area).
-            if radiance.max_element() > 0.0 && area > 0.0 {
-                lights.push(Light::Area(AreaLight::new(radiance, triangles)));
+            if radiance.max_element() > 0.0 && light.area() > 0.0 {
+                lights.push(Light::Area(light));
             }
         }
     }
@@ -540,12 +537,12 @@ fn vertex_normals(mesh: &TriangleMesh) -> Vec<Vec3> {
     let mut normals = vec![Vec3::ZERO; mesh.positions.len()];
     for t in &mesh.indices {
         let p = t.map(|i| mesh.positions[i as usize]);
-        let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+        let Some((n, _)) = crate::math::triangle_normal_area(p) else {
             continue;
         };
         for k in 0..3 {
-            let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-            let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+            let e1 = crate::math::normalize_any(p[(k + 1) % 3] - p[k]).unwrap_or(Vec3::ZERO);
+            let e2 = crate::math::normalize_any(p[(k + 2) % 3] - p[k]).unwrap_or(Vec3::ZERO);
             let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
             normals[t[k] as usize] += angle * n;
         }

@@ -155,13 +155,17 @@ fn run(scene: &Scene, estimator: Estimator, spp: u32) -> Run {
     Run { mean: r.lum.whole(), stats: r.stats, seconds: r.seconds }
 }
 
-/// The three estimators on one case (pt with 16× the samples: it carries the reference).
+/// The three estimators on one case of the template ([`run_scene`]).
 fn run_all(name: &str, p: &Params) -> [Run; 3] {
-    let scene = load(name, p).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let runs = [run(&scene, Estimator::Pt, PT_SPP), run(&scene, Estimator::Pm, 16), run(&scene, Estimator::Mis, 16)];
+    run_scene(name, &load(name, p).unwrap_or_else(|e| panic!("{name}: {e}")))
+}
+
+/// The three estimators on a loaded scene (pt with 16× the samples: it carries the reference).
+fn run_scene(name: &str, scene: &Scene) -> [Run; 3] {
+    let runs = [run(scene, Estimator::Pt, PT_SPP), run(scene, Estimator::Pm, 16), run(scene, Estimator::Mis, 16)];
     for (e, r) in ["pt", "pm", "mis"].iter().zip(&runs) {
         eprintln!(
-            "{name:>18} {e:>3}: mean {:.5} ± {:.5}  {:.2} s  photons stored {} chains capped {}",
+            "{name:>18} {e:>3}: mean {:.5e} ± {:.5e}  {:.2} s  photons stored {} chains capped {}",
             r.mean.mean,
             r.mean.sigma(),
             r.seconds,
@@ -373,13 +377,10 @@ fn photon_budget_is_the_emitted_count() {
     assert_eq!(RenderSettings::from_scene(&scene).photons, PhotonBudget::Emitted(20_000));
 }
 
-/// The environment-map scene: a diffuse floor and a glass sphere under an equirectangular map written to
-/// a temporary EXR (`texels` is the map, 32×16, row 0 at the zenith), scaled by `scale`.
-fn env_scene(name: &str, texels: impl FnMut(u32, u32) -> glam::Vec3, scale: f64) -> Scene {
-    let dir = std::env::temp_dir().join(format!("caustica-stress-env-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    caustica::film::write_exr(dir.join("map.exr"), &caustica::film::Image::from_fn(32, 16, texels)).unwrap();
-    let text = format!(
+/// The integrator and sensor tables of the scenes written outside the template: mis, 20,000 photons,
+/// k = 20, 32×24 pixels, the camera at `origin` looking at `target`.
+fn header(origin: &str, target: &str) -> String {
+    format!(
         r#"[integrator]
 max_depth = -1
 rr_depth = 5
@@ -392,8 +393,19 @@ knn = 20
 [sensor]
 fov = 50
 fov_axis = "x"
-to_world = {{ look_at = {{ origin = [0, 1.1, 2.6], target = [0, 0.2, -0.2], up = [0, 1, 0] }} }}
-film = {{ width = 32, height = 24 }}
+to_world = {{ look_at = {{ origin = {origin}, target = {target}, up = [0, 1, 0] }} }}
+film = {{ width = 32, height = 24 }}"#
+    )
+}
+
+/// The environment-map scene: a diffuse floor and a glass sphere under an equirectangular map written to
+/// a temporary EXR (`texels` is the map, 32×16, row 0 at the zenith), scaled by `scale`.
+fn env_scene(name: &str, texels: impl FnMut(u32, u32) -> glam::Vec3, scale: f64) -> Scene {
+    let dir = std::env::temp_dir().join(format!("caustica-stress-env-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    caustica::film::write_exr(dir.join("map.exr"), &caustica::film::Image::from_fn(32, 16, texels)).unwrap();
+    let text = format!(
+        r#"{header}
 [[shape]]
 type = "rectangle"
 to_world = [ {{ scale = 1.5 }}, {{ rotate = {{ axis = [1, 0, 0], angle = -90 }} }} ]
@@ -409,21 +421,14 @@ bsdf = {{ type = "dielectric", int_ior = 1.5 }}
 type = "envmap"
 filename = "map.exr"
 scale = {scale:e}
-"#
+"#,
+        header = header("[0, 1.1, 2.6]", "[0, 0.2, -0.2]"),
     );
     let scene = Scene::from_toml_str(&text, &dir, std::path::Path::new(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
     std::fs::remove_dir_all(&dir).ok();
     scene
 }
 
-/// The three estimators on a loaded scene, printed like [`run_all`].
-fn run_scene(name: &str, scene: &Scene) -> [Run; 3] {
-    let runs = [run(scene, Estimator::Pt, PT_SPP), run(scene, Estimator::Pm, 16), run(scene, Estimator::Mis, 16)];
-    for (e, r) in ["pt", "pm", "mis"].iter().zip(&runs) {
-        eprintln!("{name:>18} {e:>3}: mean {:.5e} ± {:.5e}  {:.2} s  photons stored {}", r.mean.mean, r.mean.sigma(), r.seconds, r.stats.photons_stored);
-    }
-    runs
-}
 
 /// `s` divided by `k` (a mean and its variance in other units).
 fn scaled(s: Stat, k: f64) -> Stat {
@@ -519,4 +524,66 @@ fn crop_windows_on_the_border_render_the_full_films_pixels() {
             }
         }
     }
+}
+
+/// Two lights over a floor and a glass sphere: first in the scene (so first in the light selection's CDF,
+/// where f64 keeps its tiny share) a 3 × 3 light of radiance `dim`, then a square light of half side
+/// `half` at the origin with power π (radiance 1/(4·half²)), both facing down.
+fn two_lights_scene(name: &str, half: f64, dim: f64) -> Scene {
+    let text = format!(
+        r#"{header}
+[[shape]]
+type = "rectangle"
+to_world = [ {{ scale = [1.5, 1.5, 1] }}, {{ rotate = {{ axis = [1, 0, 0], angle = 90 }} }}, {{ translate = [0, 0.8, 0] }} ]
+bsdf = {{ type = "diffuse", reflectance = 0 }}
+emitter = {{ type = "area", radiance = {dim:e} }}
+[[shape]]
+type = "rectangle"
+to_world = [ {{ scale = [{half:e}, {half:e}, 1] }}, {{ rotate = {{ axis = [1, 0, 0], angle = 90 }} }} ]
+bsdf = {{ type = "diffuse", reflectance = 0 }}
+emitter = {{ type = "area", radiance = {radiance:e} }}
+[[shape]]
+type = "rectangle"
+to_world = [ {{ scale = 1.5 }}, {{ rotate = {{ axis = [1, 0, 0], angle = -90 }} }}, {{ translate = [0, -1.2, 0] }} ]
+bsdf = {{ type = "diffuse", reflectance = 0.6 }}
+[[shape]]
+type = "sphere"
+center = [0, -0.8, 0]
+radius = 0.3
+rings = 12
+segments = 24
+bsdf = {{ type = "dielectric", int_ior = 1.5 }}
+"#,
+        header = header("[0, -0.1, 2.6]", "[0, -1.0, -0.2]"),
+        radiance = 0.25 / (half * half),
+    );
+    Scene::from_toml_str(&text, &common::repo_path("tests"), std::path::Path::new(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// q₁ across 10⁻³⁰ … 10³⁰ through real renders (issue 13 §3), read from the renders' `mis_q1_range`:
+/// - **q₁ ≥ 10³⁰**: the photons of a light of half side 10⁻¹⁷ (`p_emit` = `1/A`·… ≈ 10³³); its caustic
+///   through the glass sphere is the same as that of a light of half side 10⁻⁶ with the same power, in
+///   `pm` and `mis` (pt cannot reach such a light through glass), and `mis` agrees with `pm` (w₁ → 1);
+/// - **q₁ ≤ 10⁻³⁰**: T2's paths to the large light of radiance 10⁻³⁰, whose selection probability (and so
+///   `p_emit`) is ~10⁻³¹ (w₂ → 1).
+/// Regression for two bugs this case found: a light of side ≲ 10⁻¹⁰ was dropped as zero-area (|e₁×e₂|²
+/// underflowed f32; `math::triangle_normal_area`), and Embree 3 reported the emitting triangle itself at
+/// t = −0 to every photon leaving a 10⁻⁹ light, so no photon was stored (`EmissionSample::t_min`).
+#[test]
+fn q1_extremes_through_real_renders() {
+    let dim = 1e-30;
+    let small = run_scene("two-lights-1e-6", &two_lights_scene("two-lights-1e-6", 1e-6, dim));
+    let tiny = run_scene("two-lights-1e-17", &two_lights_scene("two-lights-1e-17", 1e-17, dim));
+    let name = "two-lights";
+    for (what, a, b) in [("pm", &small[1], &tiny[1]), ("mis", &small[2], &tiny[2])] {
+        assert!(a.stats.photons_stored > 1000 && b.stats.photons_stored == a.stats.photons_stored, "{name} {what}: photons stored {} vs {}", b.stats.photons_stored, a.stats.photons_stored);
+        let rel = (b.mean.mean / a.mean.mean - 1.0).abs();
+        assert!(rel < 1e-3, "{name} {what}: the 1e-17 light's image mean {:.6e} vs the 1e-6 light's {:.6e}", b.mean.mean, a.mean.mean);
+    }
+    assert!(tiny[1].mean.mean > 1.1 * tiny[0].mean.mean, "{name}: no caustic in pm ({:.4e}) over pt ({:.4e})", tiny[1].mean.mean, tiny[0].mean.mean);
+    assert_agrees(name, "mis vs pm", tiny[2].mean, tiny[1].mean);
+    let [lo, hi] = tiny[2].stats.mis_q1_range.expect("mis records q₁");
+    eprintln!("{name}: q₁ from {lo:.3e} to {hi:.3e}");
+    assert!(lo <= 1e-30 && hi >= 1e30, "{name}: q₁ spans only {lo:.3e} … {hi:.3e}");
+    assert!(tiny[1].stats.mis_q1_range.is_none() && tiny[0].stats.mis_q1_range.is_none(), "q₁ is recorded for mis only");
 }
