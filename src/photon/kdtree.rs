@@ -5,8 +5,8 @@
 //! most `leaf_size` photons). Each internal node splits its photons at the median along the longest axis of
 //! their tight bounding box. Photons are stored reordered so that every leaf is a contiguous range; the
 //! ranges are implicit (a node covers `[lo, hi)` and splits at `lo + (hi − lo)/2`). A node stores the tight
-//! bounding boxes of its two children (64 bytes, one cache line; SIMD vectors), so one node read decides which children to visit and in
-//! which order. Nodes are laid out in depth-first pre-order: the left child follows its parent directly and
+//! bounding boxes of its two children (64 bytes, one cache line; SIMD vectors), so one node read decides
+//! which children to visit and in which order. Nodes are laid out in depth-first pre-order: the left child follows its parent directly and
 //! the right child sits `2^(h−1)` further (h = levels below the node). The build is parallel (rayon::join
 //! over the two halves above a size threshold; `select_nth_unstable_by` per node).
 //!
@@ -31,7 +31,8 @@ use crate::math::{Aabb, Vec3, Vec3A};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
 /// --leaf N` at k = 50: 16, 24 and 32 are within noise of each other and ~5% faster than 8 (4: ~15% slower);
-/// 16 keeps leaves small for smaller k. Nodes (64 bytes) then cost 4 to 8 bytes per photon (a leaf holds 8 to 16).
+/// 16 keeps leaves small for smaller k. Nodes (64 bytes) then cost 4 to 8 bytes per photon (a leaf holds 8
+/// to 16).
 pub const DEFAULT_LEAF_SIZE: usize = 16;
 
 /// Below this many photons a subtree is built on the current thread.
@@ -400,8 +401,8 @@ impl KdTree {
 
     /// [`KdTree::knn_by_index`] warm-started from the recent queries kept in `out` with the same `k` and
     /// the same acceptance test, which the caller names by `key` (a key shared by two tests costs reruns,
-    /// never exactness). A
-    /// recent query that found k photons within `r` of `p₀` bounds this one's radius by `r + |p − p₀|`
+    /// never exactness). A recent query that found k photons within `r` of `p₀` bounds this one's radius by
+    /// `r + |p − p₀|`
     /// (the triangle inequality: those k photons lie within it), so the search starts with that limit
     /// instead of `max_radius`: it prunes from the first node, and photons beyond the bound never enter
     /// the heap. The result is the exact k-NN whatever the bound: if k accepted photons lie within it,
@@ -703,6 +704,45 @@ mod tests {
             let mut want = all.clone();
             want.sort_by(f32::total_cmp);
             assert_eq!(got, want[..k]);
+        }
+    }
+
+    /// `knn_warm` over a coherent sequence of queries (a walk, as a pixel's samples) gives the k-NN
+    /// distances of the cold search, also when one key names two different tests (reruns).
+    #[test]
+    fn warm_start_is_exact() {
+        let mut s = crate::sampler::Sampler::for_key(6, 6, 6);
+        let photons: Vec<Photon> = (0..20_000)
+            .map(|_| {
+                let p = Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0);
+                // Half the photons arrive from above, half from below.
+                let w = if s.next_1d() < 0.5 { Vec3::Y } else { -Vec3::Y };
+                Photon::new(p * (0.2 + p.length()), w, Vec3::ONE, 1.0)
+            })
+            .collect();
+        let t = KdTree::build(photons).unwrap();
+        let dirs = t.directions();
+        let (mut warm, mut cold) = (KnnResult::default(), KnnResult::default());
+        let mut q = Vec3::ZERO;
+        for i in 0..3000 {
+            q += Vec3::new(s.next_1d() - 0.5, 0.02 * (s.next_1d() - 0.5), s.next_1d() - 0.5) * 0.05;
+            if i % 500 == 0 {
+                q = Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0);
+            }
+            let above = i % 3 != 0;
+            let accept = move |j: usize| (dirs[j].y > 0.0) == above;
+            // Key 7 for both tests on purpose: the bound of one may hold too few photons of the other.
+            let (k, r) = if i % 7 == 0 { (8, 0.05) } else { (50, 0.4) };
+            t.knn_warm(q, k, r, 7, accept, &mut warm);
+            t.knn_by_index(q, k, r, accept, &mut cold);
+            let sorted = |o: &KnnResult| {
+                let mut d: Vec<u32> = o.neighbors().iter().map(|n| n.dist2.to_bits()).collect();
+                d.sort_unstable();
+                d
+            };
+            assert_eq!(warm.r2().to_bits(), cold.r2().to_bits(), "query {i}");
+            assert_eq!(sorted(&warm), sorted(&cold), "query {i}");
+            assert!(warm.neighbors().iter().all(|n| accept(n.index as usize)));
         }
     }
 
