@@ -10,13 +10,17 @@
 //! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
 //!
 //! [`build_accel`] wraps the chosen backend in [`rebase::Rebased`], which traces rays that start far from
-//! the scene (reflected by a sky-sized shape) from a point of the same line near it.
+//! the scene (reflected by a sky-sized shape) from points of the same line near it; when far geometry
+//! surrounds the scene (a sky-sized shape), it builds the backend twice, over the near and over the far
+//! triangles (each re-based on its own), and rays that stay near the scene skip the far one
+//! ([`shell::Shelled`]).
 
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod rebase;
+pub mod shell;
 pub mod triangle;
 
 use crate::error::AccelError;
@@ -80,9 +84,24 @@ impl std::str::FromStr for BackendKind {
     }
 }
 
-/// Builds the chosen backend over a triangle soup. Only the chosen backend is built.
+/// Builds the chosen backend over a triangle soup. Only the chosen backend is built: once, or once over
+/// the near and once over the far triangles when far geometry surrounds the scene (`shell`).
 pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(positions, indices)?;
+    match shell::split(positions, indices) {
+        Some(split) => {
+            let part = |ids: &[u32]| -> Vec<[u32; 3]> { ids.iter().map(|&i| indices[i as usize]).collect() };
+            let near = build_rebased(kind, positions, &part(&split.near))?;
+            let far = build_rebased(kind, positions, &part(&split.far))?;
+            Ok(Box::new(shell::Shelled::new(near, far, split)))
+        }
+        None => build_rebased(kind, positions, indices),
+    }
+}
+
+/// One backend over the soup, wrapped so that far rays (reflected by a sky-sized shape) are re-based near
+/// the soup's detail (`rebase`).
+fn build_rebased(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
     let inner: Box<dyn Accel> = match kind {
         BackendKind::Bvh => Box::new(bvh::Bvh::build(positions, indices)),
         #[cfg(feature = "embree")]
@@ -90,7 +109,6 @@ pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) 
         #[cfg(not(feature = "embree"))]
         BackendKind::Embree => return Err(AccelError::EmbreeNotCompiled),
     };
-    // Far rays (reflected by a sky-sized shape) are re-based near the scene: `rebase`.
     Ok(Box::new(rebase::Rebased::new(inner, positions, indices)))
 }
 

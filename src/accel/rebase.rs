@@ -19,8 +19,10 @@
 //! below the segment's length times 2⁻²⁴ and no segment's end passes the scene's detail with a large
 //! error; consecutive segments overlap by a few ulps so that rounding at a seam cannot lose a hit, and the
 //! first segment with a hit has the closest one. A hit's `t` is the segment's plus the segment's start.
-//! A far ray of a sky-sized sphere (|o| ≈ 4e9) is about 20 segments, each a query that mostly misses the
-//! top-level bounds.
+//! A far ray of a sky-sized sphere (|o| ≈ 4e9) is about 20 segments; those that miss the soup's box (padded
+//! by 10⁻³ of its extent, the line clipped to it in f64) are not traced. When far geometry surrounds the
+//! scene, `accel::shell` wraps the near and the far triangles each in their own `Rebased`, so the near
+//! part's box is the scene's and a far ray costs one or two near queries.
 //!
 //! "Far" is relative to the scene's detail: a ray is re-based when its origin's rounding exceeds 1/64 of
 //! the median triangle size (`|o| > 2¹⁸·median diagonal`), which no ray of a scene without far geometry
@@ -38,6 +40,9 @@ pub struct Rebased {
     inner: Box<dyn Accel>,
     /// Origins with `|o| > far` are re-based (`∞`: never).
     far: f32,
+    /// The box of the soup, padded by 10⁻³ of its largest extent: segments of a far ray outside it are
+    /// not traced.
+    bounds: (glam::DVec3, glam::DVec3),
 }
 
 /// One segment of a far ray: the ray to trace (`t ≥ 0` from its origin) and the `t` of its origin on
@@ -64,7 +69,32 @@ impl Rebased {
             let far = FAR_PER_DETAIL * *median;
             if far > 0.0 { far } else { f32::INFINITY }
         };
-        Self { inner, far }
+        let b = indices.iter().flatten().fold(Aabb::EMPTY, |b, &i| b.grow(positions[i as usize]));
+        let pad = glam::DVec3::splat(1e-3 * f64::from(b.extent().max_element()) + 1e-30);
+        Self {
+            inner,
+            far,
+            bounds: (b.min.as_dvec3() - pad, b.max.as_dvec3() + pad),
+        }
+    }
+
+    /// The part `[t0, t1]` of the line `o + t·d` (f64, exact for f32 input up to rounding far below the
+    /// padding) inside the padded box of the soup, or `None` if the line misses it.
+    fn line_in_bounds(&self, o: glam::DVec3, d: glam::DVec3) -> Option<(f64, f64)> {
+        let (lo, hi) = self.bounds;
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if o[a] < lo[a] || o[a] > hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        (t0 <= t1).then_some((t0, t1))
     }
 
     /// The segments of `ray` in order along it if it is far (module docs), `None` if it is traced as it is.
@@ -86,7 +116,10 @@ impl Rebased {
             return None;
         }
         let d_len = dd.sqrt();
+        // A line that misses the soup's box has no segment to trace (`clip` empty).
+        let clip = self.line_in_bounds(o, d).unwrap_or((f64::INFINITY, f64::NEG_INFINITY));
         Some(Segments {
+            clip,
             o,
             d,
             dir: ray.dir,
@@ -115,6 +148,8 @@ enum Stage {
 /// The segments of one far ray, approaching the closest point to the world origin `t_c` in pieces of
 /// halving length (each traced from an f64 origin on the ray, so its rounding shrinks with its distance).
 struct Segments {
+    /// The part of the line inside the soup's padded box: pieces outside it are skipped.
+    clip: (f64, f64),
     o: glam::DVec3,
     d: glam::DVec3,
     dir: Vec3,
@@ -132,7 +167,7 @@ impl Segments {
     /// `None` when the clip leaves nothing.
     fn piece(&self, start: f64, end: f64) -> Option<Segment> {
         let (lo, hi) = (start.max(self.t_min), (end + self.seam).min(self.t_max));
-        (lo < hi).then(|| {
+        (lo < hi && lo <= self.clip.1 && hi >= self.clip.0).then(|| {
             let origin = (self.o + start * self.d).as_vec3();
             Segment { ray: Ray::segment(origin, self.dir, (lo - start) as f32, (hi - start) as f32), t_start: start as f32 }
         })

@@ -9,12 +9,21 @@ use caustica::accel::brute::BruteForce;
 use caustica::accel::{build_accel, Accel, BackendKind};
 use caustica::bench::rays::RaySets;
 use caustica::bench::{hits_agree, load_input};
+use caustica::math::Vec3;
+use caustica::mesh::{shapes, TriangleMesh};
 use std::path::Path;
 
+fn load(file: &str) -> TriangleMesh {
+    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &Default::default()).expect("load").1
+}
+
 fn check(file: &str, n: usize) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
-    let (_, mesh) = load_input(&path, &Default::default()).expect("load");
-    let rays = RaySets::generate(&mesh, n).expect("rays");
+    let mesh = load(file);
+    check_rays(file, &mesh, &RaySets::generate(&mesh, n).expect("rays"));
+}
+
+/// Every backend (through `build_accel`) against the oracle over `mesh`, on `rays`.
+fn check_rays(file: &str, mesh: &TriangleMesh, rays: &RaySets) {
     let brute = BruteForce::new(&mesh.positions, &mesh.indices);
     let mut backends: Vec<Box<dyn Accel>> = vec![build_accel(BackendKind::Bvh, &mesh.positions, &mesh.indices).expect("bvh")];
     if cfg!(feature = "embree") {
@@ -62,4 +71,16 @@ fn bunny() {
 #[test]
 fn cornell_scene_soup() {
     check("scenes/cornell-caustics.toml", 400);
+}
+
+/// Issue 13: the teapot inside a sky-sized sphere (far geometry: `accel::shell` splits it off), with the
+/// teapot's own ray sets.
+#[test]
+fn teapot_inside_a_sky_sphere() {
+    let teapot = load("scenes/assets/models/teapot.obj");
+    let rays = RaySets::generate(&teapot, 1500).expect("rays");
+    let mut mesh = teapot.clone();
+    mesh.append(&shapes::sphere(Vec3::new(3.0, -2.0, 1.0), 4.3e9, 16, 32));
+    assert!(caustica::accel::shell::split(&mesh.positions, &mesh.indices).is_some(), "the sky is far geometry");
+    check_rays("teapot in a sky", &mesh, &rays);
 }

@@ -46,7 +46,11 @@ fn build(mesh: &TriangleMesh) -> Bvh {
 
 /// Rays with origins in the (slightly enlarged) bounds of `mesh` and uniform directions.
 fn random_rays(mesh: &TriangleMesh, seed: u64, n: usize) -> Vec<Ray> {
-    let b = mesh.bounds();
+    rays_from(&mesh.bounds(), seed, n)
+}
+
+/// Rays with origins in the (slightly enlarged) box `b` and uniform directions.
+fn rays_from(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
     let pad = 0.1 * (b.max - b.min);
     let b = Aabb {
         min: b.min - pad,
@@ -77,10 +81,14 @@ fn assert_same_hit(got: Option<Hit>, want: Option<Hit>, ray: &Ray, what: &str) {
 }
 
 fn agree_with_brute(mesh: &TriangleMesh, seed: u64, n_rays: usize, what: &str) -> usize {
+    agree_on_rays(mesh, random_rays(mesh, seed, n_rays), what)
+}
+
+fn agree_on_rays(mesh: &TriangleMesh, rays: Vec<Ray>, what: &str) -> usize {
     let bvh = build(mesh);
     let brute = BruteForce::new(&mesh.positions, &mesh.indices);
     let mut hits = 0;
-    for ray in random_rays(mesh, seed, n_rays) {
+    for ray in rays {
         let want = brute.intersect(&ray);
         assert_same_hit(bvh.intersect(&ray), want, &ray, what);
         hits += usize::from(want.is_some());
@@ -106,6 +114,29 @@ fn agrees_with_brute_force_on_meshes_and_soups() {
     scene.append(&cube());
     scene.append(&random_soup(4, 500, 0.3, 3.0, Vec3::ZERO));
     agree_with_brute(&scene, 4, 3000, "scene");
+}
+
+/// Issue 13: small geometry inside a sky-sized sphere (fine, and coarse enough that its triangles'
+/// boxes contain the whole scene) and under a huge tilted triangle. Rays from the small geometry
+/// agree with the oracle, closest hits, shadow rays and shadow segments alike, and the BVH is valid.
+#[test]
+fn small_geometry_inside_sky_sized_shapes_agrees() {
+    let mut small = sphere(Vec3::new(0.3, -0.2, 0.1), 0.8, 24, 40);
+    small.append(&cube());
+    small.append(&random_soup(21, 500, 0.3, 1.5, Vec3::ZERO));
+    let around = small.bounds();
+    let huge_triangle = TriangleMesh {
+        positions: vec![Vec3::new(-3e8, -1e8, -2e8), Vec3::new(2e8, 1.5, 3e8), Vec3::new(1e8, 2e8, -1e8)],
+        indices: vec![[0, 1, 2]],
+        ..TriangleMesh::default()
+    };
+    for (k, (rings, segments)) in [(2, 4), (64, 128)].into_iter().enumerate() {
+        let mut scene = small.clone();
+        scene.append(&sphere(Vec3::new(0.2, 0.1, 0.0), 4.3e9, rings, segments));
+        scene.append(&huge_triangle);
+        let hits = agree_on_rays(&scene, rays_from(&around, 30 + k as u64, 3000), &format!("sky {rings}×{segments}"));
+        assert_eq!(hits, 3000, "every ray hits something inside the sky");
+    }
 }
 
 #[test]

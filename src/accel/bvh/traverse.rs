@@ -21,12 +21,15 @@ use crate::math::{gamma, Ray, Vec4};
 
 /// pbrt-v4's conservative factor for the far slab distance: `1 + 2γ(3)`.
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
-/// Slack added to both ends of the ray interval in the box tests, in units of the largest depth
-/// (along the ray's dominant axis, in `t` units) of any vertex relative to the origin: the
-/// watertight test computes `t` from sheared vertex depths, with an absolute error of a few ulps
-/// of those depths (pbrt-v4 §6.8.4, the `δz` terms of its `δt` bound), so a triangle whose
-/// computed `t` equals `t_max` may lie, exactly, just beyond it — and in a box the ray enters
-/// just beyond `t_max`. 64 ulps; it costs nothing measurable.
+/// Slack added to both ends of the ray interval in the test of a child box, in units of the
+/// largest depth (along the ray's dominant axis, in `t` units) of the box's points relative to the
+/// origin: the watertight test computes `t` from sheared vertex depths, with an absolute error of a
+/// few ulps of those depths (pbrt-v4 §6.8.4, the `δz` terms of its `δt` bound), so a triangle whose
+/// computed `t` equals `t_max` may lie, exactly, just beyond it — and in a box the ray enters just
+/// beyond `t_max`. Every vertex below a child lies in its box, so the box's own depth bounds the
+/// error of every `t` computed below it. 64 ulps. (The slack was once one figure for the whole
+/// scene box: a sky-sized shape made it ~3·10⁴ units, and every ray visited every box along its
+/// line.)
 const DEPTH_SLACK: f32 = 64.0 * f32::EPSILON;
 /// Entries kept on the call stack; deeper traversals spill to the heap (never for SAH trees of
 /// practical size).
@@ -38,15 +41,23 @@ struct BoxRay {
     inv: [f32; 3],
     /// 1 when the ray enters through the max plane along the axis (`1/d < 0`, including `d = −0`).
     neg: [usize; 3],
+    /// The dominant axis of the watertight test (`RayPrecomp::kz`), along which depths are measured.
+    kz: usize,
+    /// [`DEPTH_SLACK`] `· |1/d_kz|`: times a box's largest `|plane − o|` along `kz`, its slack; 0 for
+    /// degenerate (zero or non-finite) directions.
+    slack_scale: f32,
 }
 
 impl BoxRay {
-    fn new(ray: &Ray) -> Self {
+    fn new(ray: &Ray, pre: &RayPrecomp) -> Self {
         let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        let slack_scale = DEPTH_SLACK * pre.sz.abs();
         Self {
             org: ray.origin.to_array(),
             inv,
             neg: inv.map(|i| usize::from(i < 0.0)),
+            kz: pre.kz.min(2),
+            slack_scale: if slack_scale.is_finite() { slack_scale } else { 0.0 },
         }
     }
 }
@@ -71,8 +82,10 @@ fn min_keep_b(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Slab test of the children of `node` against `[t_min, t_max]`: entry distances and the bit
-/// mask of the used lanes whose box the ray touches.
+/// Slab test of the children of `node` against `[t_min, t_max]`, widened per child by its depth
+/// slack ([`DEPTH_SLACK`]): the bit mask of the used lanes whose box the ray touches, and per lane
+/// the entry distance minus the slack (scaled as the far distance), so that a later test against a
+/// lowered `t_max` is `key ≤ t_max · FAR_SCALE`.
 #[inline(always)]
 fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
     let b = &node.bounds;
@@ -80,6 +93,9 @@ fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) 
     let (nx, fx) = (&b[sx], &b[1 - sx]);
     let (ny, fy) = (&b[2 + sy], &b[3 - sy]);
     let (nz, fz) = (&b[4 + sz], &b[5 - sz]);
+    let (k, ok) = (r.kz, r.org[r.kz]);
+    let (dk0, dk1) = (&b[2 * k], &b[2 * k + 1]);
+    let mut key = [0.0f32; WIDTH];
     let mut t_near = [0.0f32; WIDTH];
     let mut t_far = [0.0f32; WIDTH];
     for i in 0..WIDTH {
@@ -89,15 +105,17 @@ fn slab(node: &Node, r: &BoxRay, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) 
         let x1 = (fx[i] - r.org[0]) * r.inv[0];
         let y1 = (fy[i] - r.org[1]) * r.inv[1];
         let z1 = (fz[i] - r.org[2]) * r.inv[2];
-        t_near[i] = max_keep_b(x0, max_keep_b(y0, max_keep_b(z0, t_min)));
-        t_far[i] = min_keep_b(x1, min_keep_b(y1, min_keep_b(z1, t_max))) * FAR_SCALE;
+        let slack = r.slack_scale * max_keep_b((dk0[i] - ok).abs(), (dk1[i] - ok).abs());
+        t_near[i] = max_keep_b(x0, max_keep_b(y0, max_keep_b(z0, t_min - slack)));
+        t_far[i] = min_keep_b(x1, min_keep_b(y1, min_keep_b(z1, t_max + slack))) * FAR_SCALE;
+        key[i] = t_near[i] - slack * FAR_SCALE;
     }
     // `near <= far` per lane, as a bit mask (glam's compare + movemask; NaN compares false).
     let mut mask = 0u32;
     for (k, (n4, f4)) in t_near.chunks_exact(4).zip(t_far.chunks_exact(4)).enumerate() {
         mask |= Vec4::from_slice(n4).cmple(Vec4::from_slice(f4)).bitmask() << (4 * k);
     }
-    (t_near, mask & u32::from(node.valid))
+    (key, mask & u32::from(node.valid))
 }
 
 /// The bits of `t` as a `u32` whose unsigned order is the float order (for sort keys).
@@ -160,8 +178,8 @@ impl Stack {
     }
 }
 
-/// For the children in `mask` (non-empty) with entry distances `t_near`: pushes all but the
-/// nearest, far to near, and returns the nearest.
+/// For the children in `mask` (non-empty) with entry keys `t_near` (entry distance minus slack):
+/// pushes all but the nearest, far to near, and returns the nearest.
 #[inline(always)]
 fn descend(node: &Node, t_near: &[f32; WIDTH], mask: u32, stack: &mut Stack) -> Slot {
     let first = mask.trailing_zeros() as usize;
@@ -206,22 +224,6 @@ fn descend(node: &Node, t_near: &[f32; WIDTH], mask: u32, stack: &mut Stack) -> 
 }
 
 impl Bvh {
-    /// The absolute slack on the ray interval ([`DEPTH_SLACK`] times the largest vertex depth
-    /// along the dominant axis, bounded by the scene box); 0 for degenerate (zero) directions.
-    #[inline(always)]
-    fn depth_slack(&self, pre: &RayPrecomp) -> f32 {
-        let k = pre.kz;
-        let depth = (self.bounds.min[k] - pre.origin[k])
-            .abs()
-            .max((self.bounds.max[k] - pre.origin[k]).abs());
-        let slack = DEPTH_SLACK * depth * pre.sz.abs();
-        if slack.is_finite() {
-            slack
-        } else {
-            0.0
-        }
-    }
-
     /// The packets of leaf `slot`.
     #[inline(always)]
     fn leaf_packets(&self, slot: Slot) -> &[Tri4] {
@@ -237,8 +239,7 @@ impl Bvh {
         }
         let mut pre = RayPrecomp::new(ray);
         let pr = PacketRay::new(&pre);
-        let r = BoxRay::new(ray);
-        let slack = self.depth_slack(&pre);
+        let r = BoxRay::new(ray, &pre);
         let mut best = Hit {
             t: f32::INFINITY,
             prim: u32::MAX,
@@ -250,7 +251,7 @@ impl Bvh {
         loop {
             if cur.count == 0 {
                 let node = &self.nodes[cur.index as usize];
-                let (t_near, mask) = slab(node, &r, pre.t_min - slack, pre.t_max + slack);
+                let (t_near, mask) = slab(node, &r, pre.t_min, pre.t_max);
                 if mask != 0 {
                     cur = descend(node, &t_near, mask, &mut stack);
                     continue;
@@ -281,7 +282,7 @@ impl Bvh {
                 let Some(e) = stack.pop() else {
                     return (best.prim != u32::MAX).then_some(best);
                 };
-                if e.t_near <= (pre.t_max + slack) * FAR_SCALE {
+                if e.t_near <= pre.t_max * FAR_SCALE {
                     cur = e.slot;
                     break;
                 }
@@ -296,15 +297,13 @@ impl Bvh {
         }
         let pre = RayPrecomp::new(ray);
         let pr = PacketRay::new(&pre);
-        let r = BoxRay::new(ray);
-        let slack = self.depth_slack(&pre);
-        let (t_min, t_max) = (pre.t_min - slack, pre.t_max + slack);
+        let r = BoxRay::new(ray, &pre);
         let mut stack = Stack::new();
         let mut cur = self.root;
         loop {
             if cur.count == 0 {
                 let node = &self.nodes[cur.index as usize];
-                let (_, mask) = slab(node, &r, t_min, t_max);
+                let (_, mask) = slab(node, &r, pre.t_min, pre.t_max);
                 if mask != 0 {
                     // Any order will do (sorting by distance measured slower for shadow rays).
                     let mut m = mask & (mask - 1);
