@@ -212,11 +212,17 @@ impl Bsdf {
         }
     }
 
-    /// Any non-delta lobe that can be sampled.
+    /// Any non-delta lobe that can be sampled and reflects something. A black lobe (`reflectance = 0`,
+    /// the usual material of an area light) scatters nothing, so neither NEE, nor the density estimate, nor
+    /// storing photons there can add anything: eye paths and photons treat such a surface as having no
+    /// non-delta lobe (the same rule on both sides, so the chain counts of T1 and T2 agree). Photons stored
+    /// on a light 10³ times the scene's size made the photon map's extent, and with it the floor of ΔA,
+    /// that large (`caustic::min_delta_area`).
     #[must_use]
     pub fn has_non_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } | Bsdf::RoughConductor { .. } => true,
+            Bsdf::Diffuse { reflectance } => reflectance.max_element() > 0.0,
+            Bsdf::RoughConductor { specular_reflectance, .. } => specular_reflectance.max_element() > 0.0,
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => false,
             Bsdf::Blend { weight, bsdf_0, bsdf_1 } => {
                 (*weight < 1.0 && bsdf_0.has_non_delta()) || (*weight > 0.0 && bsdf_1.has_non_delta())

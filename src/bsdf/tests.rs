@@ -440,6 +440,8 @@ fn delta_flags() {
     // A component with zero weight is never sampled.
     assert!(!blend(0.0, diffuse(1.0), mirror()).has_delta());
     assert!(!blend(1.0, diffuse(1.0), mirror()).has_non_delta());
+    assert!(!diffuse(0.0).has_non_delta() && !diffuse(0.0).has_delta(), "a black lobe scatters nothing");
+    assert!(!blend(0.5, diffuse(0.0), mirror()).has_non_delta());
     assert!(blend(1.0, diffuse(1.0), mirror()).has_delta());
 }
 

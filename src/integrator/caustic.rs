@@ -149,24 +149,28 @@ pub struct CausticEstimator<'a> {
 }
 
 /// Lower bound on ΔA (method.md §3): `π·r_floor²` with `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R)`, R the
-/// scene's bounding radius (5·10⁻⁵·R is 10⁻³ of the default `r_max` = 5% of R). It follows the scene's
-/// scale, never only the user's search bound: a clamp of `π(10⁻³·r_max)²` alone made every estimate
-/// of a render with `r_max` = 10⁶ cover 3·10⁶ units², which erased the caustic (issue 13 §2). The
-/// `r_max` term keeps the floor below `π·r_max²`, the largest area an estimate can have.
+/// radius of the photons' bounding sphere (5·10⁻⁵·R is 10⁻³ of the default `r_max` = 5% of the scene's
+/// radius in an ordinary scene). It follows the scale of the photon density, never the user's search
+/// bound alone (a clamp of `π(10⁻³·r_max)²` made every estimate of a render with `r_max` = 10⁶ cover
+/// 3·10⁶ units², which erased the caustic, issue 13 §2) nor the whole scene's size (a dim light of side
+/// 2·10³ over a 3-unit scene made the floor blur the caustic away, 21% dark). The `r_max` term keeps the
+/// floor below `π·r_max²`, the largest area an estimate can have.
 #[must_use]
-pub fn min_delta_area(max_radius: f32, scene_radius: f32) -> f32 {
-    let r_floor = (1e-3 * max_radius).min(5e-5 * scene_radius);
+pub fn min_delta_area(max_radius: f32, photons_radius: f32) -> f32 {
+    let r_floor = (1e-3 * max_radius).min(5e-5 * photons_radius);
     (std::f32::consts::PI * r_floor * r_floor).max(f32::MIN_POSITIVE)
 }
 
 impl<'a> CausticEstimator<'a> {
     /// `map` is `None` for `pt`, and for `pm`/`mis` when the scene needs no photon pass.
-    /// `scene_radius`: the scene's bounding radius (sets the floor of ΔA, [`min_delta_area`]).
+    /// `scene_radius`: the scene's bounding radius, the scale of the floor of ΔA ([`min_delta_area`]) when
+    /// the photons have no extent (none, or all at one point); else their bounding sphere's radius is.
     #[must_use]
     pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32, scene_radius: f32) -> Self {
         let map = if estimator == Estimator::Pt { None } else { map };
+        let photons_radius = map.map(|m| m.tree().bounds().bounding_sphere().1).filter(|r| *r > 0.0 && r.is_finite()).unwrap_or(scene_radius);
         let occupancy = map.and_then(|m| OccupancyGrid::new(m.tree(), max_radius));
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, scene_radius), area_scale: 1.0, occupancy }
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, photons_radius), area_scale: 1.0, occupancy }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale

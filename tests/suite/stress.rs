@@ -526,15 +526,16 @@ fn crop_windows_on_the_border_render_the_full_films_pixels() {
     }
 }
 
-/// Two lights over a floor and a glass sphere: first in the scene (so first in the light selection's CDF,
-/// where f64 keeps its tiny share) a 3 × 3 light of radiance `dim`, then a square light of half side
-/// `half` at the origin with power π (radiance 1/(4·half²)), both facing down.
-fn two_lights_scene(name: &str, half: f64, dim: f64) -> Scene {
+/// Two lights over a floor (half side `floor_half`) and a glass sphere: first in the scene (so first in the
+/// light selection's CDF, where f64 keeps its tiny share) a square light of half side `dim_half` and
+/// radiance `dim` 0.8 above the origin, then a square light of half side `half` at the origin with power
+/// π (radiance 1/(4·half²)), both facing down.
+fn two_lights_scene(name: &str, half: f64, dim: f64, dim_half: f64, floor_half: f64) -> Scene {
     let text = format!(
         r#"{header}
 [[shape]]
 type = "rectangle"
-to_world = [ {{ scale = [1.5, 1.5, 1] }}, {{ rotate = {{ axis = [1, 0, 0], angle = 90 }} }}, {{ translate = [0, 0.8, 0] }} ]
+to_world = [ {{ scale = [{dim_half:e}, {dim_half:e}, 1] }}, {{ rotate = {{ axis = [1, 0, 0], angle = 90 }} }}, {{ translate = [0, 0.8, 0] }} ]
 bsdf = {{ type = "diffuse", reflectance = 0 }}
 emitter = {{ type = "area", radiance = {dim:e} }}
 [[shape]]
@@ -544,7 +545,7 @@ bsdf = {{ type = "diffuse", reflectance = 0 }}
 emitter = {{ type = "area", radiance = {radiance:e} }}
 [[shape]]
 type = "rectangle"
-to_world = [ {{ scale = 1.5 }}, {{ rotate = {{ axis = [1, 0, 0], angle = -90 }} }}, {{ translate = [0, -1.2, 0] }} ]
+to_world = [ {{ scale = {floor_half:e} }}, {{ rotate = {{ axis = [1, 0, 0], angle = -90 }} }}, {{ translate = [0, -1.2, 0] }} ]
 bsdf = {{ type = "diffuse", reflectance = 0.6 }}
 [[shape]]
 type = "sphere"
@@ -572,8 +573,8 @@ bsdf = {{ type = "dielectric", int_ior = 1.5 }}
 #[test]
 fn q1_extremes_through_real_renders() {
     let dim = 1e-30;
-    let small = run_scene("two-lights-1e-6", &two_lights_scene("two-lights-1e-6", 1e-6, dim));
-    let tiny = run_scene("two-lights-1e-17", &two_lights_scene("two-lights-1e-17", 1e-17, dim));
+    let small = run_scene("two-lights-1e-6", &two_lights_scene("two-lights-1e-6", 1e-6, dim, 1.5, 1.5));
+    let tiny = run_scene("two-lights-1e-17", &two_lights_scene("two-lights-1e-17", 1e-17, dim, 1.5, 1.5));
     let name = "two-lights";
     for (what, a, b) in [("pm", &small[1], &tiny[1]), ("mis", &small[2], &tiny[2])] {
         assert!(a.stats.photons_stored > 1000 && b.stats.photons_stored == a.stats.photons_stored, "{name} {what}: photons stored {} vs {}", b.stats.photons_stored, a.stats.photons_stored);
@@ -586,4 +587,24 @@ fn q1_extremes_through_real_renders() {
     eprintln!("{name}: q₁ from {lo:.3e} to {hi:.3e}");
     assert!(lo <= 1e-30 && hi >= 1e30, "{name}: q₁ spans only {lo:.3e} … {hi:.3e}");
     assert!(tiny[1].stats.mis_q1_range.is_none() && tiny[0].stats.mis_q1_range.is_none(), "q₁ is recorded for mis only");
+}
+
+/// Parts of a scene far larger than its caustics must not blur them away: a ground plane of half side 10⁴
+/// and a dim light of half side 10³ beside a 3-unit scene. The floor of ΔA followed the scene's radius
+/// (`caustic::min_delta_area`), and pm/mis were 17% dark with the big plane, 21% with the big light; it
+/// now follows the photons' extent, and black surfaces (the lights) store no photon. pm and mis must agree
+/// with the small scene's (same photons, same caustic) and with pt, which finds the light (half side
+/// 0.05) through the glass.
+#[test]
+fn huge_plane_or_light_keeps_the_caustic() {
+    let small = run_scene("small", &two_lights_scene("small", 0.05, 1e-30, 1.5, 1.5));
+    for (name, dim_half, floor_half) in [("huge-plane", 1.5, 1e4), ("huge-dim-light", 1e3, 1.5)] {
+        let runs = run_scene(name, &two_lights_scene(name, 0.05, 1e-30, dim_half, floor_half));
+        assert_agrees(name, "pm vs pt", runs[1].mean, runs[0].mean);
+        assert_agrees(name, "mis vs pt", runs[2].mean, runs[0].mean);
+        for (what, a, b) in [("pm", &runs[1], &small[1]), ("mis", &runs[2], &small[2])] {
+            let rel = (a.mean.mean / b.mean.mean - 1.0).abs();
+            assert!(rel < 0.05, "{name}: {what} mean {:.5e} vs the small scene's {:.5e}", a.mean.mean, b.mean.mean);
+        }
+    }
 }
