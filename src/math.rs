@@ -3,7 +3,7 @@
 //!
 //! Concrete `f32` types from glam throughout (no generic `Float`), as glam itself decided.
 
-pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A, Vec4};
 
 /// A ray `origin + t·dir` valid for `t ∈ [t_min, t_max]` (inclusive, Embree's convention).
 /// `dir` need not be normalised; `t` is measured in units of `dir`.

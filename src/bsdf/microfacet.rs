@@ -56,7 +56,7 @@ pub struct Microfacet {
 
 impl Microfacet {
     #[inline]
-    fn alpha(&self) -> f32 {
+    pub(super) fn alpha(&self) -> f32 {
         if self.alpha >= MIN_ALPHA {
             self.alpha
         } else {

@@ -16,7 +16,8 @@
 //! `f = R·F·D·[G1/cos](wo)·[G1/cos](wi)/4` and `pdf_w = D·[G1/cos](wo)/4`.
 
 use super::conductor::fresnel_conductor_rgb;
-use super::microfacet::Microfacet;
+use super::microfacet::{Microfacet, MicrofacetType};
+use std::f32::consts::PI;
 use crate::math::{Vec2, Vec3};
 
 /// Both directions strictly above the surface (one-sided reflection).
@@ -78,6 +79,62 @@ pub(super) fn f_pdf_upper(
     }
     let fresnel = eta_k.map_or(Vec3::ONE, |(eta, k)| fresnel_conductor_rgb(wo.dot(h), eta, k));
     (specular_reflectance * fresnel * (0.25 * d * g), pdf)
+}
+
+/// A GGX lobe without Fresnel (`eta_k = None`) prepared for one `wo` (`wo.z > 0`), evaluated by
+/// [`GgxAtWo::f_pdf`] without branches so that a loop over many `wi` vectorises (`super::at_wo`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct GgxAtWo {
+    /// The clamped α ([`Microfacet::alpha`]) and α².
+    alpha: f32,
+    a2: f32,
+    sample_visible: bool,
+    specular_reflectance: Vec3,
+    wo: Vec3,
+    /// `G1(wo)/cos θo` before the `wo·h > 0` test.
+    g1o_unmasked: f32,
+}
+
+impl GgxAtWo {
+    /// `None` unless the lobe is GGX without Fresnel and `wo.z > 0`.
+    pub(super) fn new(md: &Microfacet, specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo: Vec3, g1o_unmasked: f32) -> Option<Self> {
+        if md.kind != MicrofacetType::Ggx || eta_k.is_some() || wo.z <= 0.0 {
+            return None;
+        }
+        let alpha = md.alpha();
+        Some(Self { alpha, a2: alpha * alpha, sample_visible: md.sample_visible, specular_reflectance, wo, g1o_unmasked })
+    }
+
+    /// Bit for bit `f_pdf_upper(md, specular_reflectance, None, wo, wi, g1o_unmasked)`: the same operations
+    /// in the same order (`Microfacet::d`, `Microfacet::g1_over_cos`, `pdf_from` written out for GGX), every
+    /// case computed and the result selected.
+    #[inline(always)]
+    pub(super) fn f_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let wo = self.wo;
+        let h = wo + wi;
+        let rcp = h.length_recip();
+        let normalised = rcp.is_finite() & (rcp > 0.0);
+        let h = h * rcp;
+        // D(h) (Microfacet::d, GGX).
+        let t = (h.x * h.x + h.y * h.y) / self.a2 + h.z * h.z;
+        let d = if h.z <= 0.0 { 0.0 } else { 1.0 / (PI * self.a2 * t * t) };
+        let wo_h = wo.dot(h);
+        let g1o = if wo_h <= 0.0 { 0.0 } else { self.g1o_unmasked };
+        let pdf = if self.sample_visible { 0.25 * d * g1o } else { 0.25 * d * h.z / wo_h };
+        // G1(wi)/cos θi (Microfacet::g1_over_cos, GGX).
+        let sin2 = wi.x * wi.x + wi.y * wi.y;
+        let g1i_unmasked = 2.0 / (wi.z + (wi.z * wi.z + self.alpha * self.alpha * sin2).sqrt());
+        let g1i = if wi.dot(h) <= 0.0 { 0.0 } else { g1i_unmasked };
+        let g = g1o * g1i;
+        // specular_reflectance · F (= 1) · (0.25·D·G); `x·1 = x` exactly.
+        let f = if g == 0.0 { Vec3::ZERO } else { self.specular_reflectance * (0.25 * d * g) };
+        let upper = (wo.z > 0.0) & (wi.z > 0.0);
+        if upper & normalised {
+            (f, pdf)
+        } else {
+            (Vec3::ZERO, 0.0)
+        }
+    }
 }
 
 /// The density of [`sample_wi`].

@@ -27,7 +27,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{photon_chain_reaches, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 use serde::{Deserialize, Serialize};
@@ -42,6 +42,30 @@ fn photon_densities(q1_scale: f32, pdf_emit: f32, cos_theta: f32, q2: f32) -> (f
         (f32::INFINITY, 0.0)
     } else {
         (q1_scale * pdf_emit * cos_theta, q2)
+    }
+}
+
+/// A name for the gather's acceptance test `ωₚ·n_g · (ωₒ·n_g) > 0`, which depends on `n_g` and on the side
+/// of `ωₒ` only: equal normals and sides give equal keys ([`crate::photon::KdTree::knn_warm`]).
+fn acceptance_key(ng: Vec3, wo_above: bool) -> u64 {
+    let [x, y, z] = ng.to_array().map(f32::to_bits);
+    (u64::from(x) | u64::from(y) << 32) ^ u64::from(z).rotate_left(16) ^ u64::from(wo_above)
+}
+
+/// Photons per batch of the density estimate's BSDF evaluation ([`CausticEstimator::gather`]).
+const BATCH: usize = 64;
+
+/// One batch of the density estimate: local directions, BSDF values and pdfs, photon indices.
+struct GatherBatch {
+    wi: [[f32; BATCH]; 3],
+    f: [[f32; BATCH]; 3],
+    pdf: [f32; BATCH],
+    index: [u32; BATCH],
+}
+
+impl Default for GatherBatch {
+    fn default() -> Self {
+        GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH] }
     }
 }
 
@@ -120,6 +144,8 @@ pub struct CausticEstimator<'a> {
     /// `s ∈ (0, 1]`: the estimate uses the photons within `r² = s·r²_kNN` and `ΔA = π·s·r²_kNN` (the
     /// progressive schedule of method.md §6; 1 = the plain k-NN estimate).
     area_scale: f32,
+    /// Where no photon lies within `max_radius` (`None` without photons or for an infinite radius).
+    occupancy: Option<OccupancyGrid>,
 }
 
 /// Lower bound on ΔA (method.md §3): `π·r_floor²` with `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R)`, R the
@@ -143,7 +169,8 @@ impl<'a> CausticEstimator<'a> {
     pub fn new(estimator: Estimator, map: Option<&'a PhotonMap>, knn: usize, max_radius: f32, scene_radius: f32) -> Self {
         let map = if estimator == Estimator::Pt { None } else { map };
         let photons_radius = map.map(|m| m.tree().bounds().bounding_sphere().1).filter(|r| *r > 0.0 && r.is_finite()).unwrap_or(scene_radius);
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, photons_radius), area_scale: 1.0 }
+        let occupancy = map.and_then(|m| OccupancyGrid::new(m.tree(), max_radius));
+        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, photons_radius), area_scale: 1.0, occupancy }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
@@ -196,13 +223,20 @@ impl<'a> CausticEstimator<'a> {
         let Some(map) = self.map else {
             return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0, q1: Q1Range::default() };
         };
+        if self.occupancy.as_ref().is_some_and(|grid| !grid.may_hold_photons_near(si.p)) {
+            // No photon within max_radius: what the search would return (no photon, r² = max_radius²),
+            // for one memory read.
+            let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius);
+            return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
+        }
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
         // Directions decoded once per photon at build time (KdTree::directions), tested in the search.
         let directions = map.tree().directions();
-        map.tree().knn_by_index(si.p, self.knn, self.max_radius, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
-        let r2 = scratch.r2() * self.area_scale;
-        let delta_area = (std::f32::consts::PI * r2).max(self.min_area);
+        // Warm-started from the recent queries of this tile with the same test (the same ng and side).
+        let key = acceptance_key(ng, wo_side > 0.0);
+        map.tree().knn_warm(si.p, self.knn, self.max_radius, key, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
+        let (r2, delta_area) = self.estimate_area(scratch.r2());
         let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
@@ -212,28 +246,48 @@ impl<'a> CausticEstimator<'a> {
         let photons = map.tree().photons();
         // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
-        for nb in scratch.neighbors() {
-            if nb.dist2 > r2 {
-                continue;
-            }
-            used += 1;
-            let ph = &photons[nb.index as usize];
-            let wi_local = si.frame.to_local(directions[nb.index as usize]);
-            let w1_f = match self.estimator {
-                Estimator::Mis => {
-                    let (f, q2) = bsdf_at_wo.f_pdf(wi_local);
-                    if f == Vec3::ZERO {
-                        continue;
-                    }
-                    let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), wi_local.z.abs(), q2);
-                    q1_range.add(q1);
-                    mis_weight_pair(q1, q2).0 * f
+        // In batches (structure of arrays on the stack): the photons' local directions, then the BSDF of
+        // all of them at once (`BsdfAtWo::f_pdf_many`, vectorised), then the weighted sum in the
+        // neighbours' order.
+        let mut batch = GatherBatch::default();
+        for chunk in scratch.neighbors().chunks(BATCH) {
+            let mut n = 0;
+            for nb in chunk {
+                if nb.dist2 > r2 {
+                    continue;
                 }
-                _ => bsdf_at_wo.f(wi_local),
-            };
-            sum += w1_f * ph.power();
+                let wi_local = si.frame.to_local(directions[nb.index as usize]);
+                (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
+                n += 1;
+            }
+            used += n as u32;
+            let [wx, wy, wz] = &batch.wi;
+            let [fr, fg, fb] = &mut batch.f;
+            bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
+            for j in 0..n {
+                let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
+                let ph = &photons[batch.index[j] as usize];
+                let w1_f = match self.estimator {
+                    Estimator::Mis => {
+                        if f == Vec3::ZERO {
+                            continue;
+                        }
+                        let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), batch.wi[2][j].abs(), batch.pdf[j]);
+                        q1_range.add(q1);
+                        mis_weight_pair(q1, q2).0 * f
+                    }
+                    _ => f,
+                };
+                sum += w1_f * ph.power();
+            }
         }
         Gather { l1: sum / delta_area, delta_area, photons: used, q1: q1_range }
+    }
+
+    /// The squared radius `s·r²_kNN` of the estimate and its area ΔA (clamped, method.md §3, §6).
+    fn estimate_area(&self, r2_knn: f32) -> (f32, f32) {
+        let r2 = r2_knn * self.area_scale;
+        (r2, (std::f32::consts::PI * r2).max(self.min_area))
     }
 
     /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,

@@ -5,8 +5,8 @@
 //! most `leaf_size` photons). Each internal node splits its photons at the median along the longest axis of
 //! their tight bounding box. Photons are stored reordered so that every leaf is a contiguous range; the
 //! ranges are implicit (a node covers `[lo, hi)` and splits at `lo + (hi − lo)/2`). A node stores the tight
-//! bounding boxes of its two children (48 bytes), so one node read decides which children to visit and in
-//! which order. Nodes are laid out in depth-first pre-order: the left child follows its parent directly and
+//! bounding boxes of its two children (64 bytes, one cache line; SIMD vectors), so one node read decides
+//! which children to visit and in which order. Nodes are laid out in depth-first pre-order: the left child follows its parent directly and
 //! the right child sits `2^(h−1)` further (h = levels below the node). The build is parallel (rayon::join
 //! over the two halves above a size threshold; `select_nth_unstable_by` per node).
 //!
@@ -27,11 +27,12 @@
 use rayon::prelude::*;
 
 use super::record::Photon;
-use crate::math::{Aabb, Vec3};
+use crate::math::{Aabb, Vec3, Vec3A};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
 /// --leaf N` at k = 50: 16, 24 and 32 are within noise of each other and ~5% faster than 8 (4: ~15% slower);
-/// 16 keeps leaves small for smaller k. Nodes then cost ~3.2 bytes per photon.
+/// 16 keeps leaves small for smaller k. Nodes (64 bytes) then cost 4 to 8 bytes per photon (a leaf holds 8
+/// to 16).
 pub const DEFAULT_LEAF_SIZE: usize = 16;
 
 /// Below this many photons a subtree is built on the current thread.
@@ -98,11 +99,35 @@ impl Bounds {
     }
 }
 
-/// An internal node: the tight boxes of its left and right children.
+/// A child's tight box as two SIMD vectors (glam's `Vec3A`, one SSE register each), so that the box
+/// distance is a handful of vector instructions: the same operations in the same order as
+/// [`Bounds::dist2`], hence the same f32 value.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
+struct NodeBox {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl NodeBox {
+    fn new(b: Bounds) -> Self {
+        NodeBox { min: Vec3A::from_array(b.min), max: Vec3A::from_array(b.max) }
+    }
+
+    /// [`Bounds::dist2`] (no NaN arises: the coordinates and the query are finite or, for the empty box, ∓∞).
+    #[inline]
+    fn dist2(&self, q: Vec3A) -> f32 {
+        let d = (self.min - q).max(q - self.max).max(Vec3A::ZERO);
+        let d = d * d;
+        (d.x + d.y) + d.z
+    }
+}
+
+/// An internal node: the tight boxes of its left and right children (one cache line).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 struct Node {
-    children: [Bounds; 2],
+    children: [NodeBox; 2],
 }
 
 /// A balanced kd-tree over photons. Immutable once built; queries are `&self` and thread-safe.
@@ -132,12 +157,36 @@ pub struct Neighbor {
 }
 
 /// The result of a k-NN query, reusable across queries (its buffer is kept, so steady-state queries do not
-/// allocate). Create one per thread with [`KnnResult::default`].
+/// allocate). Create one per thread with [`KnnResult::default`] (one per tile where results must not depend
+/// on which queries a thread made before: [`KdTree::knn_warm`] remembers recent queries here).
 #[derive(Clone, Debug, Default)]
 pub struct KnnResult {
     /// A 4-ary max-heap on `dist2` while searching; arbitrary order after [`KnnResult::sort_by_distance`].
     heap: Vec<Neighbor>,
     r2: f32,
+    /// The last [`RECENT`] queries of [`KdTree::knn_warm`] that found k photons (a ring).
+    recent: [Recent; RECENT],
+    next_recent: usize,
+}
+
+/// Remembered queries of [`KdTree::knn_warm`]. Eye paths of one pixel hit nearby points, but a path's
+/// later vertices come between two samples' first hits: a few entries keep the previous sample's.
+const RECENT: usize = 4;
+
+/// A query that found `k` photons within radius `r` of `p` under the acceptance test named `key`.
+#[derive(Clone, Copy, Debug)]
+struct Recent {
+    p: Vec3,
+    r: f32,
+    k: usize,
+    key: u64,
+}
+
+impl Default for Recent {
+    fn default() -> Self {
+        // k = 0 matches no query (k ≥ 1 is searched).
+        Recent { p: Vec3::ZERO, r: f32::INFINITY, k: 0, key: 0 }
+    }
 }
 
 impl KnnResult {
@@ -221,7 +270,7 @@ fn build_recursive(photons: &mut [Photon], bounds: Bounds, nodes: &mut [Node], h
         (bounds_of(left), bounds_of(right))
     };
     let (node, rest) = nodes.split_first_mut().expect("h >= 1 so there is a node");
-    *node = Node { children: [bl, br] };
+    *node = Node { children: [NodeBox::new(bl), NodeBox::new(br)] };
     let (left_nodes, right_nodes) = rest.split_at_mut((1usize << (h - 1)) - 1);
     if big {
         rayon::join(
@@ -259,7 +308,7 @@ impl KdTree {
         }
         let mut nodes = vec![
             Node {
-                children: [Bounds::EMPTY; 2]
+                children: [NodeBox::new(Bounds::EMPTY); 2]
             };
             (1usize << depth) - 1
         ];
@@ -347,6 +396,43 @@ impl KdTree {
     /// [`KdTree::directions`]): the density estimate tests the pre-decoded direction without touching the
     /// photon record.
     pub fn knn_by_index<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, accept: F, out: &mut KnnResult) {
+        self.knn_bounded(p, k, max_radius, None, &accept, out);
+    }
+
+    /// [`KdTree::knn_by_index`] warm-started from the recent queries kept in `out` with the same `k` and
+    /// the same acceptance test, which the caller names by `key` (a key shared by two tests costs reruns,
+    /// never exactness). A recent query that found k photons within `r` of `p₀` bounds this one's radius by
+    /// `r + |p − p₀|`
+    /// (the triangle inequality: those k photons lie within it), so the search starts with that limit
+    /// instead of `max_radius`: it prunes from the first node, and photons beyond the bound never enter
+    /// the heap. The result is the exact k-NN whatever the bound: if k accepted photons lie within it,
+    /// the k nearest do too; if fewer do (rounding, or a `key` reused for another test), the search runs
+    /// again from `max_radius`. Only the order of the neighbours in the heap (and which of equidistant
+    /// photons at the k-th distance is kept) depends on the bound.
+    pub fn knn_warm<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
+        let bound = out
+            .recent
+            .iter()
+            .filter(|r| r.k == k && r.key == key)
+            .map(|r| r.r + r.p.distance(p))
+            .fold(f32::INFINITY, f32::min);
+        // Rounding of r and of the distance could put one of the k photons just outside: a relative margin
+        // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
+        let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
+        let warm = (bound2 < max_radius * max_radius).then_some(bound2);
+        self.knn_bounded(p, k, max_radius, warm, accept, out);
+        if warm.is_some() && out.heap.len() < k {
+            self.knn_bounded(p, k, max_radius, None, accept, out);
+        }
+        if k > 0 && out.heap.len() == k && p.is_finite() {
+            out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
+            out.next_recent = (out.next_recent + 1) % RECENT;
+        }
+    }
+
+    /// The search of [`KdTree::knn_by_index`], starting with the inclusive limit `warm` on d² instead of
+    /// `max_radius²` when given (`warm < max_radius²`; the result then holds the k nearest only if it holds k).
+    fn knn_bounded<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, accept: F, out: &mut KnnResult) {
         out.heap.clear();
         out.r2 = 0.0;
         if k == 0 {
@@ -371,7 +457,7 @@ impl KdTree {
             nodes: &self.nodes,
             q: p.to_array(),
             k,
-            limit: max_r2,
+            limit: warm.unwrap_or(max_r2),
             heap: &mut out.heap,
             accept,
         };
@@ -396,7 +482,7 @@ struct Search<'a, F> {
     accept: F,
 }
 
-impl<F: Fn(usize) -> bool> Search<'_, F> {
+impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
     /// Visits the subtree rooted at `node` (height `h`) covering photons `[lo, hi)`.
     fn descend(&mut self, node: usize, h: u32, lo: usize, hi: usize) {
         if h == 0 {
@@ -404,7 +490,8 @@ impl<F: Fn(usize) -> bool> Search<'_, F> {
             return;
         }
         let [bl, br] = &self.nodes[node].children;
-        let (dl, dr) = (bl.dist2(&self.q), br.dist2(&self.q));
+        let q = Vec3A::from_array(self.q);
+        let (dl, dr) = (bl.dist2(q), br.dist2(q));
         let mid = lo + (hi - lo) / 2;
         let (left, right) = (node + 1, node + (1usize << (h - 1)));
         if dl <= dr {
@@ -424,15 +511,32 @@ impl<F: Fn(usize) -> bool> Search<'_, F> {
         }
     }
 
+    /// Offers the leaf's photons within the limit, in groups of [`LEAF_GROUP`]: the distances of a group
+    /// first (a loop without branches, vectorised), then only the photons within the limit of the group's
+    /// start (a bit mask) are tested again against the current limit and `accept`.
     #[inline]
     fn scan_leaf(&mut self, lo: usize, hi: usize) {
         let [qx, qy, qz] = self.q;
-        for (i, &[x, y, z]) in self.positions[lo..hi].iter().enumerate() {
-            let (dx, dy, dz) = (x - qx, y - qy, z - qz);
-            let d2 = (dx * dx + dy * dy) + dz * dz;
-            if d2 <= self.limit && (self.accept)(lo + i) {
-                self.offer(d2, (lo + i) as u32);
+        let mut start = lo;
+        for group in self.positions[lo..hi].chunks(LEAF_GROUP) {
+            let mut d2 = [0.0f32; LEAF_GROUP];
+            for (d, &[x, y, z]) in d2.iter_mut().zip(group) {
+                let (dx, dy, dz) = (x - qx, y - qy, z - qz);
+                *d = (dx * dx + dy * dy) + dz * dz;
             }
+            let limit = self.limit;
+            let mut inside = 0u32;
+            for (j, &d) in d2.iter().enumerate().take(group.len()) {
+                inside |= u32::from(d <= limit) << j;
+            }
+            while inside != 0 {
+                let j = inside.trailing_zeros() as usize;
+                inside &= inside - 1;
+                if d2[j] <= self.limit && (self.accept)(start + j) {
+                    self.offer(d2[j], (start + j) as u32);
+                }
+            }
+            start += group.len();
         }
     }
 
@@ -453,6 +557,10 @@ impl<F: Fn(usize) -> bool> Search<'_, F> {
         }
     }
 }
+
+/// Photons whose distances [`Search::scan_leaf`] computes at once (a leaf of [`DEFAULT_LEAF_SIZE`] is one
+/// group; a bit each in a `u32` mask).
+const LEAF_GROUP: usize = 16;
 
 /// Children per heap node. A 4-ary heap of k = 50 has 3 levels instead of 6 and the four children share a
 /// cache line, so a replacement has half the dependent loads of a binary heap (LaMarca & Ladner 1996, "The
@@ -550,14 +658,17 @@ mod tests {
         fn flat(b: &Bounds) -> [f32; 6] {
             [b.min[0], b.min[1], b.min[2], b.max[0], b.max[1], b.max[2]]
         }
+        fn flat_node(b: &NodeBox) -> [f32; 6] {
+            flat(&Bounds { min: b.min.to_array(), max: b.max.to_array() })
+        }
         fn rec(t: &KdTree, node: usize, h: u32, lo: usize, hi: usize) {
             if h == 0 {
                 return;
             }
             let [bl, br] = &t.nodes[node].children;
             let mid = lo + (hi - lo) / 2;
-            assert_eq!(flat(bl), tight(&t.photons[lo..mid]));
-            assert_eq!(flat(br), tight(&t.photons[mid..hi]));
+            assert_eq!(flat_node(bl), tight(&t.photons[lo..mid]));
+            assert_eq!(flat_node(br), tight(&t.photons[mid..hi]));
             if lo < mid && mid < hi {
                 assert!((0..3).any(|a| bl.max[a] <= br.min[a]), "children not separated by any axis");
             }
@@ -596,9 +707,49 @@ mod tests {
         }
     }
 
+    /// `knn_warm` over a coherent sequence of queries (a walk, as a pixel's samples) gives the k-NN
+    /// distances of the cold search, also when one key names two different tests (reruns).
+    #[test]
+    fn warm_start_is_exact() {
+        let mut s = crate::sampler::Sampler::for_key(6, 6, 6);
+        let photons: Vec<Photon> = (0..20_000)
+            .map(|_| {
+                let p = Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0);
+                // Half the photons arrive from above, half from below.
+                let w = if s.next_1d() < 0.5 { Vec3::Y } else { -Vec3::Y };
+                Photon::new(p * (0.2 + p.length()), w, Vec3::ONE, 1.0)
+            })
+            .collect();
+        let t = KdTree::build(photons).unwrap();
+        let dirs = t.directions();
+        let (mut warm, mut cold) = (KnnResult::default(), KnnResult::default());
+        let mut q = Vec3::ZERO;
+        for i in 0..3000 {
+            q += Vec3::new(s.next_1d() - 0.5, 0.02 * (s.next_1d() - 0.5), s.next_1d() - 0.5) * 0.05;
+            if i % 500 == 0 {
+                q = Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0);
+            }
+            let above = i % 3 != 0;
+            let accept = move |j: usize| (dirs[j].y > 0.0) == above;
+            // Key 7 for both tests on purpose: the bound of one may hold too few photons of the other.
+            let (k, r) = if i % 7 == 0 { (8, 0.05) } else { (50, 0.4) };
+            t.knn_warm(q, k, r, 7, accept, &mut warm);
+            t.knn_by_index(q, k, r, accept, &mut cold);
+            let sorted = |o: &KnnResult| {
+                let mut d: Vec<u32> = o.neighbors().iter().map(|n| n.dist2.to_bits()).collect();
+                d.sort_unstable();
+                d
+            };
+            assert_eq!(warm.r2().to_bits(), cold.r2().to_bits(), "query {i}");
+            assert_eq!(sorted(&warm), sorted(&cold), "query {i}");
+            assert!(warm.neighbors().iter().all(|n| accept(n.index as usize)));
+        }
+    }
+
     #[test]
     fn node_layout_is_compact() {
-        assert_eq!(std::mem::size_of::<Node>(), 48);
+        assert_eq!(std::mem::size_of::<Node>(), 64);
+        assert_eq!(std::mem::align_of::<Node>(), 64);
     }
 
     #[test]
@@ -608,6 +759,15 @@ mod tests {
         assert_eq!(b.dist2(&[2.0, 1.0, 4.0]), 2.0);
         assert_eq!(b.dist2(&[0.5, 0.0, 2.5]), 1.0);
         assert_eq!(Bounds::EMPTY.dist2(&[0.0; 3]), f32::INFINITY);
+        assert_eq!(NodeBox::new(Bounds::EMPTY).dist2(Vec3A::ZERO), f32::INFINITY);
+        // The node's SIMD distance is the scalar one, bit for bit.
+        let mut s = crate::sampler::Sampler::for_key(4, 4, 4);
+        for _ in 0..10_000 {
+            let mut r = || 8.0 * s.next_1d() - 4.0;
+            let bx = Bounds::EMPTY.grow(&[r(), r(), r()]).grow(&[r(), r(), r()]);
+            let q = [r(), r(), r()];
+            assert_eq!(bx.dist2(&q).to_bits(), NodeBox::new(bx).dist2(Vec3A::from_array(q)).to_bits());
+        }
         assert_eq!(b.largest_axis(), 0);
         assert_eq!(Bounds::EMPTY.largest_axis(), 0);
     }

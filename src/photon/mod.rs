@@ -1,12 +1,15 @@
-//! Caustic photons (method.md §2, §3): the compact photon record and the kd-tree with its k-NN query.
+//! Caustic photons (method.md §2, §3): the compact photon record and the kd-tree with its k-NN query,
+//! and the occupancy grid that answers "no photon within the search radius" without a search.
 //! Emission and delta-chain tracing live beside them.
 
 pub mod emission;
 pub mod emit;
 pub mod kdtree;
+pub mod occupancy;
 pub mod record;
 
 pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor};
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
+pub use occupancy::OccupancyGrid;
 pub use record::Photon;

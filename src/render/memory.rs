@@ -7,9 +7,11 @@
 //!   triangle;
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
-//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, plus 10% for the kd-tree's
-//!   nodes (measured: nodes are 5–8% of the photons' bytes with 16-photon leaves). A photon that meets a
-//!   blend of delta and non-delta lobes can be stored more than once, so this is an estimate, not a bound.
+//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 64 B: the record (32 B),
+//!   the kd-tree's packed position and decoded direction (12 + 12 B) and its nodes (64 B per 8 to 16
+//!   photons: at most 8 B). A photon that meets a blend of delta and non-delta lobes can be stored more
+//!   than once, so this is an estimate, not a bound. The occupancy grid (at most 132³ bits, 280 KiB) is
+//!   not counted.
 //!
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
@@ -61,8 +63,8 @@ impl MemoryEstimate {
 #[must_use]
 pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
     let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = budget;
-    let photons = n.saturating_mul(size_of::<Photon>() as u64);
-    photons.saturating_add(photons / 10)
+    let per_photon = size_of::<Photon>() + 2 * size_of::<[f32; 3]>() + 8;
+    n.saturating_mul(per_photon as u64)
 }
 
 /// The memory a render may use, and where that figure came from (for the error message).
@@ -105,8 +107,8 @@ mod tests {
 
     #[test]
     fn photon_map_counts_photons_and_nodes() {
-        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 35_200);
-        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 35_200);
+        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 64_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 64_000);
         // Absurd budgets saturate instead of wrapping to a small number.
         assert_eq!(photon_map_bytes(PhotonBudget::Emitted(u64::MAX)), u64::MAX);
     }
