@@ -24,8 +24,9 @@ use crate::math::{Ray, Vec3};
 pub const VERSION: &str = env!("CAUSTICA_EMBREE_VERSION");
 
 /// Scene build quality: `RTC_BUILD_QUALITY_MEDIUM`, Embree's default binned-SAH builder (≈0.4 s for
-/// 1.15 M triangles here). `HIGH` adds spatial splits: a slower build for a modest trace-time gain,
-/// mostly on scenes with long thin triangles; `LOW` (Morton) builds faster but traces slower.
+/// 1.15 M triangles here). `HIGH` (spatial splits) measured no gain on Embree 3.13.5 with ROBUST: the same
+/// build time on 1 M triangles and ray rates within noise on the teapot, bunny, cornell, teapot-glossy and
+/// a sky-sphere scene (ARCHITECTURE.md, Decisions); `LOW` (Morton) builds faster but traces slower.
 const BUILD_QUALITY: sys::RTCBuildQuality = sys::RTC_BUILD_QUALITY_MEDIUM;
 
 /// Scene flags: `RTC_SCENE_FLAG_ROBUST`: traversal and triangle tests avoid optimisations that lose
