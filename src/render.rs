@@ -373,8 +373,8 @@ pub fn render_share(
             stats.rays_traced += ps.rays;
             stats.knn_queries += ps.knn_queries;
             q1_range.merge(&ps.q1);
-            stats.mis_q1_range = q1_range.get();
         }
+        stats.mis_q1_range = q1_range.get();
         stats.seconds_render += t_pass.elapsed().as_secs_f64();
         if unfinished && (cancel.load(Ordering::Relaxed) || finished_tiles == 0) {
             stats.partial |= cancel.load(Ordering::Relaxed);

@@ -30,7 +30,6 @@ use crate::photon::kdtree::KnnResult;
 use crate::photon::{photon_chain_reaches, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
-use serde::{Deserialize, Serialize};
 
 /// `(q₁, q₂)` of one photon's path at `x` (method.md §4): `q₁ = q1_scale·p_emit·|cos θ|` with
 /// `q1_scale = N·ΔA/α`, and `q₂` the BSDF pdf of the photon's direction. A delta light's photon
@@ -73,7 +72,7 @@ impl Default for GatherBatch {
 /// values only (a delta light's `q₁ = ∞` and a grazing photon's `q₁ = 0` are its rules' limits, not
 /// numbers it must survive). The stats report it (`mis_q1_range`), so a run shows how far from 1 the
 /// weight function's inputs went on real scenes (issue 13 §3). Empty for `pt` and `pm`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Q1Range {
     pub min: f32,
     pub max: f32,

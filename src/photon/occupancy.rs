@@ -73,12 +73,6 @@ impl OccupancyGrid {
         }
     }
 
-    /// Heap memory in bytes.
-    #[must_use]
-    pub fn memory_bytes(&self) -> usize {
-        self.bits.capacity() * 8
-    }
-
     /// The cell of `p` (coordinates may lie outside the grid), `None` below the origin.
     #[inline]
     fn cell(&self, p: Vec3) -> Option<[usize; 3]> {
