@@ -4,20 +4,23 @@
 //! (`rtcIntersect1M`). The variants are timed in interleaved runs (run 1 of each, then run 2, …) on the
 //! same chunks and threads; the answers of every variant are compared with one call per ray.
 
+#[cfg(feature = "embree")]
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
-use super::rays::{RaySets, CHUNK};
+use super::rays::RaySets;
 use super::BatchingRate;
 
 /// Interleaved timed runs of every variant (more than the other measurements' 3: the ratios between
 /// variants are the result, and a shared machine's load moves single runs by ±20 %).
+#[cfg(feature = "embree")]
 const RUNS: usize = 7;
 use crate::mesh::TriangleMesh;
 
 #[cfg(feature = "embree")]
 pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> anyhow::Result<Vec<BatchingRate>> {
     use crate::accel::embree::{Batching, EmbreeAccel};
+    use super::rays::CHUNK;
     use crate::accel::Hit;
     use std::time::Instant;
 

@@ -215,7 +215,7 @@ macro_rules! set_lane {
 
 /// Packet queries of one width: up to N rays per `rtcIntersectN` / `rtcOccludedN` call, the answers
 /// exactly those of `rtcIntersect1` / `rtcOccluded1` per ray (Embree's packet and single-ray kernels run
-/// the same triangle test; `tests/suite/embree_backend.rs` compares them).
+/// the same triangle test; `tests/suite/embree_backend.rs` checks them bit for bit).
 macro_rules! packet_queries {
     ($n:literal, $intersect:ident, $occluded:ident, $RayHitN:ident, $RayN:ident, $rtc_intersect:ident, $rtc_occluded:ident) => {
         impl QueryContext {
