@@ -23,6 +23,7 @@ use rayon::prelude::*;
 use rayon::ThreadPool;
 use serde::Serialize;
 
+mod batching;
 pub mod rays;
 
 use self::rays::{RaySets, CHUNK};
@@ -69,6 +70,27 @@ pub struct BackendReport {
     /// Raw `rtcIntersect1` loop on the incoherent set, Mrays/s (Embree only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub raw_embree_incoherent: Option<f64>,
+    /// Embree only: the incoherent and shadow sets handed to Embree one ray per call, in packets of
+    /// 4/8/16, or as streams (`embree_batching`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub embree_batching: Vec<BatchingRate>,
+}
+
+/// Mrays/s of one way of handing rays to Embree (`EmbreeAccel::intersect_batched`), timed in the same
+/// interleaved runs as the others; `differ`: rays whose answer is not bit-identical to one call per ray.
+#[derive(Serialize, Debug, Clone)]
+pub struct BatchingRate {
+    pub batching: &'static str,
+    pub incoherent: f64,
+    /// `None`: no occlusion variant (streams).
+    pub shadow: Option<f64>,
+    /// Median over the interleaved runs of (single-ray time / this variant's time).
+    pub incoherent_vs_single: f64,
+    pub shadow_vs_single: Option<f64>,
+    /// The primary set (coherent: a tile per chunk), for contrast.
+    pub primary: f64,
+    pub primary_vs_single: f64,
+    pub differ: usize,
 }
 
 #[derive(Serialize, Debug, Clone, Copy)]
@@ -168,12 +190,26 @@ fn bench_input(
         let (incoherent, incoherent_s) = time_closest(pool, accel.as_ref(), &sets.incoherent);
         let (shadow, shadow_s) = time_occluded(pool, accel.as_ref(), &sets.shadow);
         drop(accel);
-        let raw_embree_incoherent = match kind {
-            BackendKind::Embree => {
-                Some(raw_embree_mrays(pool, mesh, &sets.incoherent).with_context(|| format!("{file}: raw Embree baseline"))?)
-            }
-            BackendKind::Bvh => None,
+        let (raw_embree_incoherent, embree_batching) = match kind {
+            BackendKind::Embree => (
+                Some(raw_embree_mrays(pool, mesh, &sets.incoherent).with_context(|| format!("{file}: raw Embree baseline"))?),
+                batching::rates(pool, mesh, &sets).with_context(|| format!("{file}: Embree packets"))?,
+            ),
+            BackendKind::Bvh => (None, Vec::new()),
         };
+        for b in &embree_batching {
+            eprintln!(
+                "{file}: embree {:<8} Mrays/s incoherent {:.3} ({:.3}x single), shadow {} ({}x single), primary {:.3} ({:.3}x single); {} answers differ from single rays",
+                b.batching,
+                b.incoherent,
+                b.incoherent_vs_single,
+                b.shadow.map_or("-".to_string(), |m| format!("{m:.3}")),
+                b.shadow_vs_single.map_or("-".to_string(), |m| format!("{m:.3}")),
+                b.primary,
+                b.primary_vs_single,
+                b.differ
+            );
+        }
         let version = match kind {
             BackendKind::Embree => embree_version(),
             BackendKind::Bvh => None,
@@ -197,6 +233,7 @@ fn bench_input(
             build_seconds,
             mrays_per_second,
             raw_embree_incoherent,
+            embree_batching,
         });
         answers.push(Answers {
             primary,

@@ -243,13 +243,14 @@ impl Bsdf {
     }
 
     /// Completes a non-delta sample whose direction `wi` was drawn by this BSDF's sampler: the pdf is
-    /// `self.pdf_w` and the weight `self.f·|cos θi| / pdf_w`, from the same code that `pdf_w()` and `f()` run.
+    /// `self.pdf_w` and the weight `self.f·|cos θi| / pdf_w`, both from one `f_pdf` (bit-identical to `f()` and
+    /// `pdf_w()`, one dispatch instead of two).
     fn non_delta_sample(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
-        let pdf_w = self.pdf_w(wo, wi);
+        let (f, pdf_w) = self.f_pdf(wo, wi, mode);
         if !(pdf_w > 0.0 && pdf_w.is_finite()) {
             return None;
         }
-        let weight = self.f(wo, wi, mode) * (wi.z.abs() / pdf_w);
+        let weight = f * (wi.z.abs() / pdf_w);
         weight.is_finite().then_some(BsdfSample {
             wi_local: wi,
             weight,

@@ -4,7 +4,7 @@
 #![cfg(feature = "embree")]
 
 use caustica::accel::brute::BruteForce;
-use caustica::accel::embree::{EmbreeAccel, VERSION};
+use caustica::accel::embree::{Batching, EmbreeAccel, VERSION};
 use caustica::accel::{Accel, Hit};
 use caustica::error::AccelError;
 use caustica::math::{Ray, Vec3};
@@ -301,6 +301,37 @@ fn interval_bounds_select_the_right_layer() {
     let [p0, p1, p2] = [Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(1.0, 1.0, 1.0)];
     let p = (1.0 - h.u - h.v) * p0 + h.u * p1 + h.v * p2;
     assert!((p - (o + d)).length() < 1e-5, "{p}");
+}
+
+#[test]
+fn packets_and_streams_answer_as_single_rays() {
+    let (positions, indices) = random_soup(14, 300);
+    let pair = Pair::new(positions, indices);
+    // 1,001 rays: the last packet of every width is partial. Segments of random length (some empty,
+    // t_max < t_min) so that occlusion has both answers.
+    let rays: Vec<Ray> = random_rays(15, 1001, Vec3::ZERO, Vec3::ONE)
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let mut s = Sampler::for_key(16, i as u64, 0);
+            Ray::segment(r.origin, r.dir, 0.2 * s.next_1d(), 1.5 * s.next_1d())
+        })
+        .collect();
+    let closest: Vec<Option<Hit>> = rays.iter().map(|r| pair.embree.intersect(r)).collect();
+    let blocked: Vec<bool> = rays.iter().map(|r| pair.embree.occluded(r)).collect();
+    let hits = closest.iter().filter(|h| h.is_some()).count();
+    let n_blocked = blocked.iter().filter(|&&b| b).count();
+    assert!(hits > 200 && hits < 900 && n_blocked > 200 && n_blocked < 900, "{hits} {n_blocked}");
+    for &batching in Batching::AVAILABLE {
+        let mut out = vec![None; rays.len()];
+        pair.embree.intersect_batched(&rays, &mut out, batching);
+        assert_eq!(out, closest, "{}", batching.name());
+        if batching != Batching::Stream {
+            let mut out = vec![false; rays.len()];
+            pair.embree.occluded_batched(&rays, &mut out, batching);
+            assert_eq!(out, blocked, "{}", batching.name());
+        }
+    }
 }
 
 #[test]

@@ -121,6 +121,90 @@ impl EmbreeAccel {
     }
 }
 
+/// How the benchmark hands a set of rays to Embree: one `rtcIntersect1` / `rtcOccluded1` per ray, packets of
+/// 4, 8 or 16 (`rtcIntersect4/8/16`, `rtcOccluded4/8/16`), or one stream (`rtcIntersect1M`, Embree 3 only;
+/// occlusion has no stream variant here).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Batching {
+    Single,
+    Packet4,
+    Packet8,
+    Packet16,
+    Stream,
+}
+
+impl Batching {
+    /// The ways this build of Embree offers (no streams in Embree 4).
+    pub const AVAILABLE: &'static [Batching] = if cfg!(embree3) {
+        &[Batching::Single, Batching::Packet4, Batching::Packet8, Batching::Packet16, Batching::Stream]
+    } else {
+        &[Batching::Single, Batching::Packet4, Batching::Packet8, Batching::Packet16]
+    };
+
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Batching::Single => "single",
+            Batching::Packet4 => "packet4",
+            Batching::Packet8 => "packet8",
+            Batching::Packet16 => "packet16",
+            Batching::Stream => "stream",
+        }
+    }
+}
+
+impl EmbreeAccel {
+    /// Closest hits of `rays` handed to Embree as `batching` says (streams: one call for all of `rays`);
+    /// `out[i]` answers `rays[i]`, the same answer whatever the batching.
+    pub fn intersect_batched(&self, rays: &[Ray], out: &mut [Option<Hit>], batching: Batching) {
+        assert_eq!(rays.len(), out.len());
+        ensure_ftz_daz();
+        let mut ctx = QueryContext::new();
+        match batching {
+            Batching::Single => {
+                for (o, ray) in out.iter_mut().zip(rays) {
+                    let mut rayhit = rtc_ray_hit(ray);
+                    ctx.intersect1(&self.scene, &mut rayhit);
+                    *o = (rayhit.hit.geomID != INVALID_ID).then_some(Hit {
+                        t: rayhit.ray.tfar,
+                        prim: rayhit.hit.primID,
+                        u: rayhit.hit.u,
+                        v: rayhit.hit.v,
+                    });
+                }
+            }
+            Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.intersect4(&self.scene, r, o)),
+            Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.intersect8(&self.scene, r, o)),
+            Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.intersect16(&self.scene, r, o)),
+            #[cfg(embree3)]
+            Batching::Stream => ctx.intersect_stream(&self.scene, rays, out),
+            #[cfg(not(embree3))]
+            Batching::Stream => panic!("Embree {VERSION} has no ray streams"),
+        }
+    }
+
+    /// Occlusion of `rays` handed to Embree as `batching` says (`Stream` is not offered: panics);
+    /// `out[i]` answers `rays[i]` as [`Accel::occluded`] does.
+    pub fn occluded_batched(&self, rays: &[Ray], out: &mut [bool], batching: Batching) {
+        assert_eq!(rays.len(), out.len());
+        ensure_ftz_daz();
+        let mut ctx = QueryContext::new();
+        match batching {
+            Batching::Single => {
+                for (o, ray) in out.iter_mut().zip(rays) {
+                    let mut rtc = rtc_ray(ray);
+                    ctx.occluded1(&self.scene, &mut rtc);
+                    *o = rtc.tfar == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY;
+                }
+            }
+            Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.occluded4(&self.scene, r, o)),
+            Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.occluded8(&self.scene, r, o)),
+            Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.occluded16(&self.scene, r, o)),
+            Batching::Stream => panic!("no occlusion stream is offered"),
+        }
+    }
+}
+
 impl Accel for EmbreeAccel {
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {

@@ -11,6 +11,7 @@ use std::cell::Cell;
 
 use super::handles::CommittedScene;
 use super::sys;
+use crate::accel::Hit;
 use crate::math::Ray;
 
 /// `RTC_INVALID_GEOMETRY_ID` (`(unsigned int)-1`): `hit.geomID` after a miss.
@@ -168,3 +169,120 @@ fn set_ftz_daz() {
 /// is attempted here.
 #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
 fn set_ftz_daz() {}
+
+/// The `valid` mask of Embree's packet calls: −1 for an active lane, 0 for an inactive one; Embree reads
+/// it with vector loads, so it is aligned as the widest packet.
+#[repr(C, align(64))]
+struct Valid<const N: usize>([std::os::raw::c_int; N]);
+
+/// One `rtc{Intersect,Occluded}N` call with the Embree 3 (context) or Embree 4 (arguments) signature.
+#[cfg(embree3)]
+macro_rules! packet_call {
+    ($f:ident, $args:ident, $ctx:expr, $valid:expr, $scene:expr, $packet:expr) => {
+        // SAFETY: the scene is committed and never modified again (concurrent queries are allowed); the
+        // valid mask, context and packet are valid, exclusively borrowed and aligned as Embree requires
+        // (the bindings carry the packet types' alignment, `Valid` is 64-byte aligned).
+        unsafe { sys::$f($valid.0.as_ptr(), $scene.raw(), &mut $ctx.0, $packet) }
+    };
+}
+#[cfg(embree4)]
+macro_rules! packet_call {
+    ($f:ident, $args:ident, $ctx:expr, $valid:expr, $scene:expr, $packet:expr) => {
+        // SAFETY: as for Embree 3 above: committed scene; valid mask, arguments and packet valid,
+        // exclusively borrowed and aligned as Embree requires.
+        unsafe { sys::$f($valid.0.as_ptr(), $scene.raw(), $packet, &mut $ctx.$args) }
+    };
+}
+
+/// Fills lane `lane` of an SoA ray packet (`RTCRay4/8/16`) from `ray`, every field as [`rtc_ray`] does.
+macro_rules! set_lane {
+    ($p:expr, $lane:expr, $ray:expr) => {{
+        let (p, i, r) = (&mut $p, $lane, $ray);
+        p.org_x[i] = r.origin.x;
+        p.org_y[i] = r.origin.y;
+        p.org_z[i] = r.origin.z;
+        p.tnear[i] = r.t_min;
+        p.dir_x[i] = r.dir.x;
+        p.dir_y[i] = r.dir.y;
+        p.dir_z[i] = r.dir.z;
+        p.time[i] = 0.0;
+        p.tfar[i] = r.t_max;
+        p.mask[i] = u32::MAX;
+        p.id[i] = 0;
+        p.flags[i] = 0;
+    }};
+}
+
+/// Packet queries of one width: up to N rays per `rtcIntersectN` / `rtcOccludedN` call, the answers
+/// exactly those of `rtcIntersect1` / `rtcOccluded1` per ray (Embree's packet and single-ray kernels run
+/// the same triangle test; `tests/suite/embree_backend.rs` checks them bit for bit).
+macro_rules! packet_queries {
+    ($n:literal, $intersect:ident, $occluded:ident, $RayHitN:ident, $RayN:ident, $rtc_intersect:ident, $rtc_occluded:ident) => {
+        impl QueryContext {
+            /// Closest hits of `rays` (at most N) in one packet call: `out[i]` answers `rays[i]`.
+            pub fn $intersect(&mut self, scene: &CommittedScene, rays: &[Ray], out: &mut [Option<Hit>]) {
+                assert!(rays.len() <= $n && out.len() == rays.len(), "{} rays for a packet of {}", rays.len(), $n);
+                let mut valid = Valid([0; $n]);
+                let mut packet = sys::$RayHitN::default();
+                for (lane, ray) in rays.iter().enumerate() {
+                    valid.0[lane] = -1;
+                    set_lane!(packet.ray, lane, ray);
+                }
+                packet.hit.geomID = [INVALID_ID; $n];
+                packet.hit.primID = [INVALID_ID; $n];
+                packet.hit.instID.iter_mut().for_each(|level| level.fill(INVALID_ID));
+                packet_call!($rtc_intersect, intersect, self, valid, scene, &mut packet);
+                for (lane, o) in out.iter_mut().enumerate() {
+                    *o = (packet.hit.geomID[lane] != INVALID_ID).then(|| Hit {
+                        t: packet.ray.tfar[lane],
+                        prim: packet.hit.primID[lane],
+                        u: packet.hit.u[lane],
+                        v: packet.hit.v[lane],
+                    });
+                }
+            }
+
+            /// Occlusion of `rays` (at most N) in one packet call: `out[i]` answers `rays[i]` as
+            /// `Accel::occluded` does (tfar = −∞ marks a hit, except on an empty interval).
+            pub fn $occluded(&mut self, scene: &CommittedScene, rays: &[Ray], out: &mut [bool]) {
+                assert!(rays.len() <= $n && out.len() == rays.len(), "{} rays for a packet of {}", rays.len(), $n);
+                let mut valid = Valid([0; $n]);
+                let mut packet = sys::$RayN::default();
+                for (lane, ray) in rays.iter().enumerate() {
+                    valid.0[lane] = -1;
+                    set_lane!(packet, lane, ray);
+                }
+                packet_call!($rtc_occluded, occluded, self, valid, scene, &mut packet);
+                for (lane, (o, ray)) in out.iter_mut().zip(rays).enumerate() {
+                    *o = packet.tfar[lane] == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY;
+                }
+            }
+        }
+    };
+}
+
+packet_queries!(4, intersect4, occluded4, RTCRayHit4, RTCRay4, rtcIntersect4, rtcOccluded4);
+packet_queries!(8, intersect8, occluded8, RTCRayHit8, RTCRay8, rtcIntersect8, rtcOccluded8);
+packet_queries!(16, intersect16, occluded16, RTCRayHit16, RTCRay16, rtcIntersect16, rtcOccluded16);
+
+/// Embree 3's ray streams (Embree 4 has none): `rtcIntersect1M` over an array of `RTCRayHit`.
+#[cfg(embree3)]
+impl QueryContext {
+    /// Closest hits of `rays` in one `rtcIntersect1M` call; `out[i]` answers `rays[i]`.
+    pub fn intersect_stream(&mut self, scene: &CommittedScene, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert_eq!(out.len(), rays.len());
+        let mut stream: Vec<sys::RTCRayHit> = rays.iter().map(rtc_ray_hit).collect();
+        let m = u32::try_from(stream.len()).expect("a stream of fewer than 2^32 rays");
+        // SAFETY: committed scene; the context is exclusively borrowed; `stream` holds `m` initialised,
+        // suitably aligned `RTCRayHit`s spaced by their size.
+        unsafe { sys::rtcIntersect1M(scene.raw(), &mut self.0, stream.as_mut_ptr(), m, size_of::<sys::RTCRayHit>()) };
+        for (o, rh) in out.iter_mut().zip(&stream) {
+            *o = (rh.hit.geomID != INVALID_ID).then(|| Hit {
+                t: rh.ray.tfar,
+                prim: rh.hit.primID,
+                u: rh.hit.u,
+                v: rh.hit.v,
+            });
+        }
+    }
+}
