@@ -27,7 +27,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::kdtree::KnnResult;
-use crate::photon::{photon_chain_reaches, OccupancyGrid, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, Near, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -222,7 +222,8 @@ impl<'a> CausticEstimator<'a> {
         let Some(map) = self.map else {
             return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0, q1: Q1Range::default() };
         };
-        if self.occupancy.as_ref().is_some_and(|grid| !grid.may_hold_photons_near(si.p)) {
+        let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near(si.p));
+        if near == Near::Empty {
             // No photon within max_radius: what the search would return (no photon, r² = max_radius²),
             // for one memory read.
             let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius);
@@ -230,11 +231,13 @@ impl<'a> CausticEstimator<'a> {
         }
         let ng = si.ng;
         let wo_side = wo_world.dot(ng);
-        // Directions decoded once per photon at build time (KdTree::directions), tested in the search.
-        let directions = map.tree().directions();
+        // Directions, p_emit and power decoded once per photon at build time (KdTree::decoded): the search
+        // tests the direction, and the sum below finds the rest in the same record.
+        let decoded = map.tree().decoded();
         // Warm-started from the recent queries of this tile with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
-        map.tree().knn_warm(si.p, self.knn, self.max_radius, key, |i| directions[i].dot(ng) * wo_side > 0.0, scratch);
+        // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
+        map.tree().knn_warm_from(si.p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, scratch);
         let (r2, delta_area) = self.estimate_area(scratch.r2());
         let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
@@ -242,7 +245,6 @@ impl<'a> CausticEstimator<'a> {
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
         let mut q1_range = Q1Range::default();
-        let photons = map.tree().photons();
         // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
         // In batches (structure of arrays on the stack): the photons' local directions, then the BSDF of
@@ -255,7 +257,7 @@ impl<'a> CausticEstimator<'a> {
                 if nb.dist2 > r2 {
                     continue;
                 }
-                let wi_local = si.frame.to_local(directions[nb.index as usize]);
+                let wi_local = si.frame.to_local(decoded[nb.index as usize].wi);
                 (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
                 n += 1;
             }
@@ -265,19 +267,19 @@ impl<'a> CausticEstimator<'a> {
             bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
             for j in 0..n {
                 let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
-                let ph = &photons[batch.index[j] as usize];
+                let ph = &decoded[batch.index[j] as usize];
                 let w1_f = match self.estimator {
                     Estimator::Mis => {
                         if f == Vec3::ZERO {
                             continue;
                         }
-                        let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit(), batch.wi[2][j].abs(), batch.pdf[j]);
+                        let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit, batch.wi[2][j].abs(), batch.pdf[j]);
                         q1_range.add(q1);
                         mis_weight_pair(q1, q2).0 * f
                     }
                     _ => f,
                 };
-                sum += w1_f * ph.power();
+                sum += w1_f * ph.power;
             }
         }
         Gather { l1: sum / delta_area, delta_area, photons: used, q1: q1_range }

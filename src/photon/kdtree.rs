@@ -26,7 +26,7 @@
 
 use rayon::prelude::*;
 
-use super::record::Photon;
+use super::record::{DecodedPhoton, Photon};
 use crate::math::{Aabb, Vec3, Vec3A};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
@@ -130,6 +130,37 @@ struct Node {
     children: [NodeBox; 2],
 }
 
+/// A leaf: the tight box of its photons (as its parent node stores it) and their range in tree order.
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct Leaf {
+    bounds: NodeBox,
+    lo: u32,
+    hi: u32,
+}
+
+/// The leaves of the subtree at `node` (height `h`, photons `[lo, hi)`, box `bounds`), left to right.
+fn collect_leaves(nodes: &[Node], node: usize, h: u32, lo: usize, hi: usize, bounds: NodeBox, out: &mut Vec<Leaf>) {
+    if h == 0 {
+        // Photon counts fit u32 (checked at build).
+        out.push(Leaf { bounds, lo: lo as u32, hi: hi as u32 });
+        return;
+    }
+    let [bl, br] = nodes[node].children;
+    let mid = lo + (hi - lo) / 2;
+    collect_leaves(nodes, node + 1, h - 1, lo, mid, bl, out);
+    collect_leaves(nodes, node + (1usize << (h - 1)), h - 1, mid, hi, br, out);
+}
+
+/// Where a k-NN search starts: the root, or a list of leaves that holds every photon within the search
+/// radius of the query ([`KdTree::leaves_near_box`], kept per cell by [`crate::photon::OccupancyGrid`]).
+#[derive(Clone, Copy, Debug)]
+pub enum SearchFrom<'a> {
+    Root,
+    /// Leaf ids (indices in left-to-right order).
+    Leaves(&'a [u32]),
+}
+
 /// A balanced kd-tree over photons. Immutable once built; queries are `&self` and thread-safe.
 #[derive(Clone, Debug)]
 pub struct KdTree {
@@ -138,11 +169,14 @@ pub struct KdTree {
     /// The photons' positions in tree order, packed (12 bytes instead of 32 per photon): the leaf scan
     /// reads only these, so a 16-photon leaf is 3 cache lines instead of 8.
     positions: Vec<[f32; 3]>,
-    /// The photons' incident directions `Photon::wi_world`, decoded once at build time (tree order), so
-    /// the acceptance test and the density estimate never decode the octahedral code per query.
-    directions: Vec<Vec3>,
+    /// The photons' direction, `p_emit` and power ([`DecodedPhoton`]), decoded once at build time (tree
+    /// order): the acceptance test and the density estimate never decode the octahedral code per query, and
+    /// the estimate reads one 32-byte record per photon, the one the acceptance test already loaded.
+    decoded: Vec<DecodedPhoton>,
     /// Internal nodes in depth-first pre-order; `2^depth − 1` of them.
     nodes: Vec<Node>,
+    /// The `2^depth` leaves, left to right: a search from a list of leaves reads their boxes and ranges here.
+    leaves: Vec<Leaf>,
     depth: u32,
     /// Tight bounds of all photons (the root's box).
     root: Bounds,
@@ -315,12 +349,15 @@ impl KdTree {
         let root = bounds_of(&photons);
         build_recursive(&mut photons, root, &mut nodes, depth);
         let positions = photons.iter().map(|p| *p.position_array()).collect();
-        let directions = photons.iter().map(Photon::wi_world).collect();
+        let decoded = photons.iter().map(Photon::decoded).collect();
+        let mut leaves = Vec::with_capacity(1 << depth);
+        collect_leaves(&nodes, 0, depth, 0, n, NodeBox::new(root), &mut leaves);
         Ok(Self {
             photons,
             positions,
-            directions,
+            decoded,
             nodes,
+            leaves,
             depth,
             root,
             dropped_non_finite,
@@ -344,10 +381,10 @@ impl KdTree {
         &self.photons
     }
 
-    /// `photons()[i].wi_world()` for every stored photon, decoded once (tree order).
+    /// `photons()[i].decoded()` for every stored photon, decoded once (tree order).
     #[must_use]
-    pub fn directions(&self) -> &[Vec3] {
-        &self.directions
+    pub fn decoded(&self) -> &[DecodedPhoton] {
+        &self.decoded
     }
 
     /// Bounds of the stored photons' positions (empty box for an empty map).
@@ -369,14 +406,15 @@ impl KdTree {
         self.dropped_non_finite
     }
 
-    /// Heap memory held by the tree, in bytes (photons, their packed positions and decoded directions,
+    /// Heap memory held by the tree, in bytes (photons, their packed positions and decoded records,
     /// nodes).
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         self.photons.capacity() * std::mem::size_of::<Photon>()
             + self.positions.capacity() * std::mem::size_of::<[f32; 3]>()
-            + self.directions.capacity() * std::mem::size_of::<Vec3>()
+            + self.decoded.capacity() * std::mem::size_of::<DecodedPhoton>()
             + self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.leaves.capacity() * std::mem::size_of::<Leaf>()
     }
 
     /// The `k` nearest photons to `p` within `max_radius` (inclusive) among those for which `accept` is
@@ -393,10 +431,10 @@ impl KdTree {
     }
 
     /// [`KdTree::knn`] with the acceptance test given the photon's index into [`KdTree::photons`] (and
-    /// [`KdTree::directions`]): the density estimate tests the pre-decoded direction without touching the
+    /// [`KdTree::decoded`]): the density estimate tests the pre-decoded direction without touching the
     /// photon record.
     pub fn knn_by_index<F: Fn(usize) -> bool>(&self, p: Vec3, k: usize, max_radius: f32, accept: F, out: &mut KnnResult) {
-        self.knn_bounded(p, k, max_radius, None, &accept, out);
+        self.knn_bounded(p, k, max_radius, None, SearchFrom::Root, &accept, out);
     }
 
     /// [`KdTree::knn_by_index`] warm-started from the recent queries kept in `out` with the same `k` and
@@ -410,6 +448,49 @@ impl KdTree {
     /// again from `max_radius`. Only the order of the neighbours in the heap (and which of equidistant
     /// photons at the k-th distance is kept) depends on the bound.
     pub fn knn_warm<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
+        self.knn_warm_from(p, k, max_radius, key, SearchFrom::Root, accept, out);
+    }
+
+    /// The ids of the leaves whose boxes come within `reach` of the box `[min, max]` along every axis (a
+    /// superset of the leaves holding a photon within `reach` of a point of the box), appended to `out` in
+    /// left-to-right order; false, with `out` cut back to its length on entry, when there are more than
+    /// `cap`.
+    pub fn leaves_near_box(&self, min: Vec3, max: Vec3, reach: f32, cap: usize, out: &mut Vec<u32>) -> bool {
+        let start = out.len();
+        let (lo, hi) = (Vec3A::from(min) - Vec3A::splat(reach), Vec3A::from(max) + Vec3A::splat(reach));
+        let overlaps = |b: &NodeBox| b.min.cmple(hi).all() && b.max.cmpge(lo).all();
+        // Depth-first over (node, height, first leaf id) of the subtrees whose box overlaps.
+        let mut stack = vec![(0usize, self.depth, 0u32)];
+        if self.photons.is_empty() || !overlaps(&NodeBox::new(self.root)) {
+            return true;
+        }
+        while let Some((node, h, first)) = stack.pop() {
+            if h == 0 {
+                if out.len() - start == cap {
+                    out.truncate(start);
+                    return false;
+                }
+                out.push(first);
+                continue;
+            }
+            let [bl, br] = &self.nodes[node].children;
+            // Right pushed first: leaves come out left to right.
+            if overlaps(br) {
+                stack.push((node + (1usize << (h - 1)), h - 1, first + (1u32 << (h - 1))));
+            }
+            if overlaps(bl) {
+                stack.push((node + 1, h - 1, first));
+            }
+        }
+        true
+    }
+
+    /// [`KdTree::knn_warm`] searching `from` a list of leaves instead of the root when it is given: the
+    /// list must hold every leaf with a photon within `max_radius` of `p` (as
+    /// [`crate::photon::OccupancyGrid::near`] gives). The result is the same exact k-NN (ties aside);
+    /// the leaves are scanned in the list's order, each skipped when its box lies beyond the current limit.
+    #[allow(clippy::too_many_arguments)]
+    pub fn knn_warm_from<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, from: SearchFrom<'_>, accept: F, out: &mut KnnResult) {
         let bound = out
             .recent
             .iter()
@@ -420,9 +501,9 @@ impl KdTree {
         // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
         let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
         let warm = (bound2 < max_radius * max_radius).then_some(bound2);
-        self.knn_bounded(p, k, max_radius, warm, accept, out);
+        self.knn_bounded(p, k, max_radius, warm, from, accept, out);
         if warm.is_some() && out.heap.len() < k {
-            self.knn_bounded(p, k, max_radius, None, accept, out);
+            self.knn_bounded(p, k, max_radius, None, from, accept, out);
         }
         if k > 0 && out.heap.len() == k && p.is_finite() {
             out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
@@ -431,8 +512,10 @@ impl KdTree {
     }
 
     /// The search of [`KdTree::knn_by_index`], starting with the inclusive limit `warm` on d² instead of
-    /// `max_radius²` when given (`warm < max_radius²`; the result then holds the k nearest only if it holds k).
-    fn knn_bounded<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, accept: F, out: &mut KnnResult) {
+    /// `max_radius²` when given (`warm < max_radius²`; the result then holds the k nearest only if it holds k),
+    /// from the root or from a list of leaves ([`KdTree::knn_warm_from`]).
+    #[allow(clippy::too_many_arguments)]
+    fn knn_bounded<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, warm: Option<f32>, from: SearchFrom<'_>, accept: F, out: &mut KnnResult) {
         out.heap.clear();
         out.r2 = 0.0;
         if k == 0 {
@@ -461,8 +544,21 @@ impl KdTree {
             heap: &mut out.heap,
             accept,
         };
-        if self.root.dist2(&search.q) <= search.limit {
-            search.descend(0, self.depth, 0, self.photons.len());
+        match from {
+            SearchFrom::Root => {
+                if self.root.dist2(&search.q) <= search.limit {
+                    search.descend(0, self.depth, 0, self.photons.len());
+                }
+            }
+            SearchFrom::Leaves(ids) => {
+                let q = Vec3A::from_array(search.q);
+                for &id in ids {
+                    let leaf = &self.leaves[id as usize];
+                    if leaf.bounds.dist2(q) <= search.limit {
+                        search.scan_leaf(leaf.lo as usize, leaf.hi as usize);
+                    }
+                }
+            }
         }
         if out.heap.len() == k {
             out.r2 = out.heap[0].dist2;
@@ -721,7 +817,7 @@ mod tests {
             })
             .collect();
         let t = KdTree::build(photons).unwrap();
-        let dirs = t.directions();
+        let dirs = t.decoded();
         let (mut warm, mut cold) = (KnnResult::default(), KnnResult::default());
         let mut q = Vec3::ZERO;
         for i in 0..3000 {
@@ -730,7 +826,7 @@ mod tests {
                 q = Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0);
             }
             let above = i % 3 != 0;
-            let accept = move |j: usize| (dirs[j].y > 0.0) == above;
+            let accept = move |j: usize| (dirs[j].wi.y > 0.0) == above;
             // Key 7 for both tests on purpose: the bound of one may hold too few photons of the other.
             let (k, r) = if i % 7 == 0 { (8, 0.05) } else { (50, 0.4) };
             t.knn_warm(q, k, r, 7, accept, &mut warm);
@@ -743,6 +839,38 @@ mod tests {
             assert_eq!(warm.r2().to_bits(), cold.r2().to_bits(), "query {i}");
             assert_eq!(sorted(&warm), sorted(&cold), "query {i}");
             assert!(warm.neighbors().iter().all(|n| accept(n.index as usize)));
+        }
+    }
+
+    /// `leaves_near_box` lists every leaf holding a photon within `reach` of the box (brute force), in
+    /// left-to-right order, and gives up past `cap`.
+    #[test]
+    fn leaves_near_a_box_hold_every_photon_in_reach() {
+        let mut s = crate::sampler::Sampler::for_key(8, 8, 8);
+        let photons: Vec<Photon> = (0..5000).map(|_| Photon::new(Vec3::new(s.next_1d(), 0.3 * s.next_1d(), s.next_1d()), Vec3::Z, Vec3::ONE, 1.0)).collect();
+        let t = KdTree::build(photons).unwrap();
+        let mut ids = Vec::new();
+        for _ in 0..500 {
+            let min = Vec3::new(s.next_1d(), 0.3 * s.next_1d(), s.next_1d());
+            let max = min + Vec3::splat(0.05 * s.next_1d());
+            let reach = 0.05 * s.next_1d();
+            ids.clear();
+            assert!(t.leaves_near_box(min, max, reach, usize::MAX, &mut ids));
+            assert!(ids.windows(2).all(|w| w[0] < w[1]), "left to right");
+            for (id, leaf) in t.leaves.iter().enumerate() {
+                let near = t.positions[leaf.lo as usize..leaf.hi as usize].iter().any(|&p| {
+                    let p = Vec3::from_array(p);
+                    p.cmpge(min - Vec3::splat(reach)).all() && p.cmple(max + Vec3::splat(reach)).all()
+                });
+                assert!(!near || ids.contains(&(id as u32)), "leaf {id} holds a photon in reach");
+            }
+            let n = ids.len();
+            if n > 0 {
+                ids.clear();
+                ids.push(u32::MAX);
+                assert!(!t.leaves_near_box(min, max, reach, n - 1, &mut ids), "more than the cap");
+                assert_eq!(ids, [u32::MAX], "cut back to its length on entry");
+            }
         }
     }
 

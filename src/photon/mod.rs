@@ -8,8 +8,8 @@ pub mod kdtree;
 pub mod occupancy;
 pub mod record;
 
-pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor};
+pub use kdtree::{KdTree, KdTreeError, KnnResult, Neighbor, SearchFrom};
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
-pub use occupancy::OccupancyGrid;
-pub use record::Photon;
+pub use occupancy::{Near, OccupancyGrid};
+pub use record::{DecodedPhoton, Photon};

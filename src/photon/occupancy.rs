@@ -7,9 +7,62 @@
 //! one of its 26 neighbours, so marking the 3×3×3 block around each photon's cell marks every cell from
 //! which it can be found. `c` is `r` plus 1% (rounding of the cell indices is far below that), or larger
 //! when the grid would exceed [`MAX_CELLS_PER_AXIS`] cells along an axis.
+//!
+//! Each marked cell also keeps the list of the kd-tree's leaves that may hold a photon within `r` of a
+//! point of the cell (leaf boxes within `r` of the cell's box, plus a margin for rounding;
+//! [`KdTree::leaves_near_box`]), when there are at most [`MAX_LEAVES_PER_CELL`]: a query there scans those
+//! leaves ([`crate::photon::SearchFrom::Leaves`]) instead of walking the tree from its root. Where photons
+//! are sparse (most of `cornell-caustics`: a query finds fewer than k within `r`, so the walk covers the
+//! whole search disk, ~20 nodes for ~3 leaves) that is a few box tests instead of a descent.
 
-use super::KdTree;
+use super::{KdTree, SearchFrom};
 use crate::math::Vec3;
+
+/// Leaves per cell at most in a cell's list; a cell near more leaves (a dense caustic, where the warm-started
+/// walk from the root prunes well) keeps none and its queries walk the tree.
+const MAX_LEAVES_PER_CELL: usize = 24;
+
+/// Marked cells per photon at most for the lists to be built (a sparse map spread over many cells keeps
+/// none: every query walks the tree), and list entries per photon at most (later cells keep none). So the
+/// lists hold at most 2·8 + 6·4 = [`LIST_BYTES_PER_PHOTON`] bytes per photon, and their build (one bounded
+/// tree walk per marked cell) stays proportional to the photons.
+const MAX_MARKED_PER_PHOTON: usize = 2;
+const MAX_LIST_ENTRIES_PER_PHOTON: usize = 6;
+
+/// The lists' largest memory per stored photon (`render::memory` counts it).
+pub const LIST_BYTES_PER_PHOTON: usize = MAX_MARKED_PER_PHOTON * size_of::<CellList>() + MAX_LIST_ENTRIES_PER_PHOTON * size_of::<u32>();
+
+/// What a query point's cell says about the search ([`OccupancyGrid::near`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Near<'a> {
+    /// No photon lies within the radius: the estimate is empty.
+    Empty,
+    /// Search from these leaves (every leaf with a photon within the radius is among them).
+    Leaves(&'a [u32]),
+    /// Search from the root.
+    Tree,
+}
+
+impl<'a> Near<'a> {
+    /// Where the search starts (`Empty` searches nothing: an empty list).
+    #[must_use]
+    pub fn search_from(self) -> SearchFrom<'a> {
+        match self {
+            Near::Empty => SearchFrom::Leaves(&[]),
+            Near::Leaves(ids) => SearchFrom::Leaves(ids),
+            Near::Tree => SearchFrom::Root,
+        }
+    }
+}
+
+/// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree).
+#[derive(Clone, Copy, Debug)]
+struct CellList {
+    start: u32,
+    len: u32,
+}
+
+const NO_LIST: u32 = u32::MAX;
 
 /// Cells per axis at most (128³ bits = 256 KiB); beyond it the cells grow (the test stays exact, only
 /// coarser).
@@ -22,6 +75,12 @@ pub struct OccupancyGrid {
     inv_cell: f32,
     dims: [usize; 3],
     bits: Vec<u64>,
+    /// Per word of `bits`: the marked cells before it (a marked cell's rank indexes `lists`); empty when
+    /// no lists were built.
+    rank: Vec<u32>,
+    /// Per marked cell, in index order.
+    lists: Vec<CellList>,
+    leaf_ids: Vec<u32>,
 }
 
 impl OccupancyGrid {
@@ -42,7 +101,8 @@ impl OccupancyGrid {
         // Photons land in cells 1 ..= ⌊extent/c⌋ + 1 (rounding may add one), so +4 leaves room for the
         // marked neighbours on both sides.
         let dims = extent.to_array().map(|e| (e / cell) as usize + 4);
-        let mut grid = OccupancyGrid { origin, inv_cell: 1.0 / cell, dims, bits: vec![0; (dims[0] * dims[1] * dims[2]).div_ceil(64)] };
+        let words = (dims[0] * dims[1] * dims[2]).div_ceil(64);
+        let mut grid = OccupancyGrid { origin, inv_cell: 1.0 / cell, dims, bits: vec![0; words], rank: Vec::new(), lists: Vec::new(), leaf_ids: Vec::new() };
         for p in tree.photons() {
             let Some(c) = grid.cell(p.position()) else { continue };
             for dz in 0..3 {
@@ -55,7 +115,81 @@ impl OccupancyGrid {
                 }
             }
         }
+        grid.build_lists(tree, radius, cell);
         Some(grid)
+    }
+
+    /// The marked cells' leaf lists (module docs). A cell's box is `origin + c·[i, i + 1]` per axis; a
+    /// query assigned to it by [`OccupancyGrid::cell`] may lie outside by the rounding of that assignment,
+    /// and a photon at f32 distance ≤ r may lie a little farther, so the reach is `1.01·r` plus 16 ulps of
+    /// the largest coordinate of the grid (each error is a few ulps of the coordinates involved, and a few
+    /// 10⁻⁷ of r).
+    fn build_lists(&mut self, tree: &KdTree, radius: f32, cell: f32) {
+        let far = self.origin.abs().max((self.origin + Vec3::from_array(self.dims.map(|d| d as f32)) * cell).abs()).max_element();
+        let reach = 1.01 * radius + 16.0 * f32::EPSILON * far;
+        let mut marked = 0u32;
+        self.rank = self
+            .bits
+            .iter()
+            .map(|w| {
+                let before = marked;
+                marked += w.count_ones();
+                before
+            })
+            .collect();
+        if marked as usize > MAX_MARKED_PER_PHOTON * tree.len() {
+            self.rank.clear();
+            return;
+        }
+        self.lists.reserve(marked as usize);
+        let mut ids = Vec::new();
+        for (w, &word) in self.bits.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let i = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (x, y, z) = (i % self.dims[0], (i / self.dims[0]) % self.dims[1], i / (self.dims[0] * self.dims[1]));
+                let lo = Vec3::new(x as f32, y as f32, z as f32);
+                let (min, max) = (self.origin + lo * cell, self.origin + (lo + Vec3::ONE) * cell);
+                ids.clear();
+                let room = self.leaf_ids.len() + MAX_LEAVES_PER_CELL <= MAX_LIST_ENTRIES_PER_PHOTON * tree.len();
+                let list = if room && tree.leaves_near_box(min, max, reach, MAX_LEAVES_PER_CELL, &mut ids) {
+                    let start = self.leaf_ids.len() as u32;
+                    self.leaf_ids.extend_from_slice(&ids);
+                    CellList { start, len: ids.len() as u32 }
+                } else {
+                    CellList { start: 0, len: NO_LIST }
+                };
+                self.lists.push(list);
+            }
+        }
+    }
+
+    /// Where the search for the photons within the radius of `p` starts (module docs): nowhere (no photon
+    /// within reach), from a list of leaves, or from the root (a non-finite `p` too).
+    #[inline]
+    #[must_use]
+    pub fn near(&self, p: Vec3) -> Near<'_> {
+        if !p.is_finite() {
+            return Near::Tree;
+        }
+        // Outside the grid: more than one cell (≥ the radius) from every photon.
+        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Near::Empty };
+        let (w, b) = (i / 64, i % 64);
+        let word = self.bits[w];
+        if word & (1 << b) == 0 {
+            return Near::Empty;
+        }
+        if self.rank.is_empty() {
+            // No lists (too many marked cells).
+            return Near::Tree;
+        }
+        let list = self.lists[self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize];
+        if list.len == NO_LIST {
+            Near::Tree
+        } else {
+            Near::Leaves(&self.leaf_ids[list.start as usize..(list.start + list.len) as usize])
+        }
     }
 
     /// Whether a photon may lie within the radius of `p`: false only when none does. A non-finite `p` gives
@@ -63,14 +197,7 @@ impl OccupancyGrid {
     #[inline]
     #[must_use]
     pub fn may_hold_photons_near(&self, p: Vec3) -> bool {
-        if !p.is_finite() {
-            return true;
-        }
-        match self.cell(p).and_then(|c| self.index(c)) {
-            Some(i) => self.bits[i / 64] & (1 << (i % 64)) != 0,
-            // Outside the grid: more than one cell (≥ the radius) from every photon.
-            None => false,
-        }
+        self.near(p) != Near::Empty
     }
 
     /// The cell of `p` (coordinates may lie outside the grid), `None` below the origin.
@@ -136,6 +263,58 @@ mod tests {
         assert!(OccupancyGrid::new(&tree, f32::INFINITY).is_none());
         assert!(OccupancyGrid::new(&tree, 0.0).is_none());
         assert!(OccupancyGrid::new(&KdTree::build(Vec::new()).unwrap(), 1.0).is_none());
+    }
+
+    /// A search from the cell's leaves ([`OccupancyGrid::near`]) finds the k-NN of the search from the root:
+    /// sparse and dense photons (so that both lists and the tree's fallback are used), far from the origin
+    /// (rounding of the cell assignment against a small radius), with the acceptance test inside.
+    #[test]
+    fn searches_from_cell_leaves_are_exact() {
+        let mut s = Sampler::for_key(12, 0, 0);
+        for (offset, radius) in [(Vec3::ZERO, 0.1f32), (Vec3::new(2000.0, -1500.0, 700.0), 0.003), (Vec3::ZERO, 0.5)] {
+            let scale = radius / 0.1;
+            let mut photons = Vec::new();
+            // A sparse layer on a plane, a dense spot in it, and a sparse cloud above it (sparse enough that the
+            // grid keeps lists: at most 2 marked cells per photon).
+            for i in 0..6000 {
+                let p = match i % 20 {
+                    0 => Vec3::new(4.0 * s.next_1d() - 2.0, 0.3 * s.next_1d(), 4.0 * s.next_1d() - 2.0),
+                    1..=7 => Vec3::new(0.1 * s.next_1d(), 0.0, 0.1 * s.next_1d()),
+                    _ => Vec3::new(4.0 * s.next_1d() - 2.0, 0.0, 4.0 * s.next_1d() - 2.0),
+                };
+                let w = if s.next_1d() < 0.5 { Vec3::Y } else { -Vec3::Y };
+                photons.push(Photon::new(offset + p * scale, w, Vec3::ONE, 1.0));
+            }
+            let tree = KdTree::build(photons).unwrap();
+            let grid = OccupancyGrid::new(&tree, radius).unwrap();
+            let dirs = tree.decoded();
+            let (mut from_cell, mut from_root) = (KnnResult::default(), KnnResult::default());
+            let (mut lists, mut walks) = (0, 0);
+            for i in 0..20_000 {
+                let q = Vec3::new(4.4 * s.next_1d() - 2.2, 2.4 * s.next_1d() - 0.2, 4.4 * s.next_1d() - 2.2);
+                // Half the queries near the plane, where the photons are.
+                let q = offset + scale * if i % 2 == 0 { Vec3::new(q.x, 0.02 * q.y, q.z) } else { Vec3::new(q.x, 0.2 * q.y, q.z) };
+                let above = i % 3 != 0;
+                let accept = move |j: usize| (dirs[j].wi.y > 0.0) == above;
+                let k = if i % 5 == 0 { 4 } else { 50 };
+                let near = grid.near(q);
+                match near {
+                    Near::Leaves(_) => lists += 1,
+                    Near::Tree => walks += 1,
+                    Near::Empty => {}
+                }
+                tree.knn_warm_from(q, k, radius, u64::from(above), near.search_from(), accept, &mut from_cell);
+                tree.knn_by_index(q, k, radius, accept, &mut from_root);
+                let sorted = |o: &KnnResult| {
+                    let mut d: Vec<u32> = o.neighbors().iter().map(|n| n.dist2.to_bits()).collect();
+                    d.sort_unstable();
+                    d
+                };
+                assert_eq!(from_cell.r2().to_bits(), from_root.r2().to_bits(), "radius {radius}, query {i} {q}");
+                assert_eq!(sorted(&from_cell), sorted(&from_root), "radius {radius}, query {i} {q}");
+            }
+            assert!(lists > 1000 && walks > 100, "radius {radius}: {lists} searches from lists, {walks} from the root");
+        }
     }
 
     /// Photons exactly one radius away along an axis (and diagonally) are within reach of a "may" cell.

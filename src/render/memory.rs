@@ -7,18 +7,20 @@
 //!   triangle;
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
-//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 64 B: the record (32 B),
-//!   the kd-tree's packed position and decoded direction (12 + 12 B) and its nodes (64 B per 8 to 16
-//!   photons: at most 8 B). A photon that meets a blend of delta and non-delta lobes can be stored more
-//!   than once, so this is an estimate, not a bound. The occupancy grid (at most 132³ bits, 280 KiB) is
-//!   not counted.
+//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 130 B: the record (32 B),
+//!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
+//!   photons: at most 8 B) and leaves (48 B per 8 to 16 photons: at most 6 B), and the occupancy grid's
+//!   per-cell leaf lists (at most 40 B). A photon that meets a blend of delta and non-delta lobes can be
+//!   stored more than once, so this is an estimate, not a bound. The occupancy grid's bits (at most 132³
+//!   bits, 280 KiB) are not counted.
 //!
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
 
 use crate::film::PixelSum;
 use crate::math::Vec3;
-use crate::photon::{Photon, PhotonBudget};
+use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
+use crate::photon::{DecodedPhoton, Photon, PhotonBudget};
 use crate::scene::Scene;
 use crate::sys::gb;
 
@@ -63,7 +65,7 @@ impl MemoryEstimate {
 #[must_use]
 pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
     let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = budget;
-    let per_photon = size_of::<Photon>() + 2 * size_of::<[f32; 3]>() + 8;
+    let per_photon = size_of::<Photon>() + size_of::<[f32; 3]>() + size_of::<DecodedPhoton>() + 8 + 6 + LIST_BYTES_PER_PHOTON;
     n.saturating_mul(per_photon as u64)
 }
 
@@ -107,8 +109,8 @@ mod tests {
 
     #[test]
     fn photon_map_counts_photons_and_nodes() {
-        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 64_000);
-        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 64_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 130_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 130_000);
         // Absurd budgets saturate instead of wrapping to a small number.
         assert_eq!(photon_map_bytes(PhotonBudget::Emitted(u64::MAX)), u64::MAX);
     }
