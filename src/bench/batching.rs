@@ -22,6 +22,7 @@ pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> a
     use crate::accel::embree::{Batching, EmbreeAccel};
     use super::rays::CHUNK;
     use crate::accel::Hit;
+    use crate::math::Ray;
     use std::time::Instant;
 
     let accel = EmbreeAccel::new(&mesh.positions, &mesh.indices)?;
@@ -30,33 +31,20 @@ pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> a
     let mut primary: Vec<Vec<Option<Hit>>> = variants.iter().map(|_| vec![None; sets.primary.len()]).collect();
     let mut shadow: Vec<Vec<bool>> = variants.iter().map(|_| vec![false; sets.shadow.len()]).collect();
     let mut seconds: Vec<[Vec<f64>; 3]> = variants.iter().map(|_| [Vec::new(), Vec::new(), Vec::new()]).collect();
+    // Seconds to answer `rays` into `out`, chunk by chunk on the pool's threads.
+    fn timed<T: Send>(pool: &ThreadPool, rays: &[Ray], out: &mut [T], query: impl Fn(&[Ray], &mut [T]) + Sync) -> f64 {
+        let start = Instant::now();
+        pool.install(|| out.par_chunks_mut(CHUNK).zip(rays.par_chunks(CHUNK)).for_each(|(out, rays)| query(rays, out)));
+        start.elapsed().as_secs_f64()
+    }
     for _ in 0..RUNS {
         for (i, &batching) in variants.iter().enumerate() {
-            let start = Instant::now();
-            pool.install(|| {
-                closest[i]
-                    .par_chunks_mut(CHUNK)
-                    .zip(sets.incoherent.par_chunks(CHUNK))
-                    .for_each(|(out, rays)| accel.intersect_batched(rays, out, batching));
-            });
-            seconds[i][0].push(start.elapsed().as_secs_f64());
-            let start = Instant::now();
-            pool.install(|| {
-                primary[i]
-                    .par_chunks_mut(CHUNK)
-                    .zip(sets.primary.par_chunks(CHUNK))
-                    .for_each(|(out, rays)| accel.intersect_batched(rays, out, batching));
-            });
-            seconds[i][2].push(start.elapsed().as_secs_f64());
+            let closest_hits = |rays: &[Ray], out: &mut [Option<Hit>]| accel.intersect_batched(rays, out, batching);
+            seconds[i][0].push(timed(pool, &sets.incoherent, &mut closest[i], closest_hits));
+            seconds[i][2].push(timed(pool, &sets.primary, &mut primary[i], closest_hits));
             if batching != Batching::Stream {
-                let start = Instant::now();
-                pool.install(|| {
-                    shadow[i]
-                        .par_chunks_mut(CHUNK)
-                        .zip(sets.shadow.par_chunks(CHUNK))
-                        .for_each(|(out, rays)| accel.occluded_batched(rays, out, batching));
-                });
-                seconds[i][1].push(start.elapsed().as_secs_f64());
+                let occlusion = |rays: &[Ray], out: &mut [bool]| accel.occluded_batched(rays, out, batching);
+                seconds[i][1].push(timed(pool, &sets.shadow, &mut shadow[i], occlusion));
             }
         }
     }

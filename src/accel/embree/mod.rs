@@ -15,7 +15,7 @@ mod query;
 mod sys;
 
 use self::handles::{CommittedScene, Device, Geometry, Scene};
-use self::query::{ensure_ftz_daz, rtc_ray, rtc_ray_hit, QueryContext, INVALID_ID};
+use self::query::{ensure_ftz_daz, hit_of, rtc_ray, rtc_ray_hit, was_occluded, QueryContext, INVALID_ID};
 use super::{Accel, Hit};
 use crate::error::AccelError;
 use crate::math::{Ray, Vec3};
@@ -161,18 +161,8 @@ impl EmbreeAccel {
         ensure_ftz_daz();
         let mut ctx = QueryContext::new();
         match batching {
-            Batching::Single => {
-                for (o, ray) in out.iter_mut().zip(rays) {
-                    let mut rayhit = rtc_ray_hit(ray);
-                    ctx.intersect1(&self.scene, &mut rayhit);
-                    *o = (rayhit.hit.geomID != INVALID_ID).then_some(Hit {
-                        t: rayhit.ray.tfar,
-                        prim: rayhit.hit.primID,
-                        u: rayhit.hit.u,
-                        v: rayhit.hit.v,
-                    });
-                }
-            }
+            // What the renderer does: one `Accel::intersect` per ray.
+            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray)),
             Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.intersect4(&self.scene, r, o)),
             Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.intersect8(&self.scene, r, o)),
             Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.intersect16(&self.scene, r, o)),
@@ -190,13 +180,7 @@ impl EmbreeAccel {
         ensure_ftz_daz();
         let mut ctx = QueryContext::new();
         match batching {
-            Batching::Single => {
-                for (o, ray) in out.iter_mut().zip(rays) {
-                    let mut rtc = rtc_ray(ray);
-                    ctx.occluded1(&self.scene, &mut rtc);
-                    *o = rtc.tfar == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY;
-                }
-            }
+            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray)),
             Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.occluded4(&self.scene, r, o)),
             Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.occluded8(&self.scene, r, o)),
             Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.occluded16(&self.scene, r, o)),
@@ -211,16 +195,9 @@ impl Accel for EmbreeAccel {
         ensure_ftz_daz();
         let mut rayhit = rtc_ray_hit(ray);
         QueryContext::new().intersect1(&self.scene, &mut rayhit);
-        if rayhit.hit.geomID == INVALID_ID {
-            return None;
-        }
-        debug_assert!((rayhit.hit.primID as usize) < self.triangle_count);
-        Some(Hit {
-            t: rayhit.ray.tfar,
-            prim: rayhit.hit.primID,
-            u: rayhit.hit.u,
-            v: rayhit.hit.v,
-        })
+        let hit = hit_of(&rayhit);
+        debug_assert!(hit.is_none_or(|h| (h.prim as usize) < self.triangle_count));
+        hit
     }
 
     #[inline]
@@ -228,9 +205,7 @@ impl Accel for EmbreeAccel {
         ensure_ftz_daz();
         let mut rtc = rtc_ray(ray);
         QueryContext::new().occluded1(&self.scene, &mut rtc);
-        // Embree marks an occluded ray by setting tfar = −∞; a ray that came in with t_max = −∞ (an
-        // empty interval) keeps it without being occluded.
-        rtc.tfar == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY
+        was_occluded(rtc.tfar, ray)
     }
 
     fn name(&self) -> &'static str {

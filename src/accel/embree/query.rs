@@ -52,6 +52,26 @@ pub(super) fn rtc_ray_hit(ray: &Ray) -> sys::RTCRayHit {
     sys::RTCRayHit { ray: rtc_ray(ray), hit }
 }
 
+/// The closest hit `rtcIntersect1` (or a stream) left in `rayhit`, `None` after a miss.
+#[inline]
+#[must_use]
+pub(super) fn hit_of(rayhit: &sys::RTCRayHit) -> Option<Hit> {
+    (rayhit.hit.geomID != INVALID_ID).then_some(Hit {
+        t: rayhit.ray.tfar,
+        prim: rayhit.hit.primID,
+        u: rayhit.hit.u,
+        v: rayhit.hit.v,
+    })
+}
+
+/// Whether an occlusion query found a hit: Embree marks an occluded ray by setting `tfar = −∞`; a ray
+/// that came in with `t_max = −∞` (an empty interval) keeps it without being occluded.
+#[inline]
+#[must_use]
+pub(super) fn was_occluded(tfar: f32, ray: &Ray) -> bool {
+    tfar == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY
+}
+
 /// The per-query arguments of one Embree major version, initialised as the header's inline
 /// initialiser does. Embree may write into them during traversal, so each thread uses its own.
 #[cfg(embree3)]
@@ -254,7 +274,7 @@ macro_rules! packet_queries {
                 }
                 packet_call!($rtc_occluded, occluded, self, valid, scene, &mut packet);
                 for (lane, (o, ray)) in out.iter_mut().zip(rays).enumerate() {
-                    *o = packet.tfar[lane] == f32::NEG_INFINITY && ray.t_max != f32::NEG_INFINITY;
+                    *o = was_occluded(packet.tfar[lane], ray);
                 }
             }
         }
@@ -277,12 +297,7 @@ impl QueryContext {
         // suitably aligned `RTCRayHit`s spaced by their size.
         unsafe { sys::rtcIntersect1M(scene.raw(), &mut self.0, stream.as_mut_ptr(), m, size_of::<sys::RTCRayHit>()) };
         for (o, rh) in out.iter_mut().zip(&stream) {
-            *o = (rh.hit.geomID != INVALID_ID).then(|| Hit {
-                t: rh.ray.tfar,
-                prim: rh.hit.primID,
-                u: rh.hit.u,
-                v: rh.hit.v,
-            });
+            *o = hit_of(rh);
         }
     }
 }
