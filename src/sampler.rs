@@ -5,18 +5,20 @@
 //! number of threads or on the order in which tiles are rendered.
 //!
 //! Two kinds of stream:
-//! - **Eye samples** ([`Sampler::for_pixel`]) draw from Owen-scrambled Sobol points, padded: each call
-//!   (`next_1d` or `next_2d`) is one *dimension* with its own 2-D point set over the pixel's samples —
-//!   the first two Sobol dimensions (a (0,2)-sequence), its index shuffled and its coordinates scrambled
-//!   by hashes of `(seed, pixel, dimension)` (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT
-//!   9(4): nested uniform scrambling in its hash form, §3, and the index shuffle of §4). So the samples of
-//!   one pixel are stratified in every dimension (any `2^m` consecutive samples from 0 form a (0,m,2)-net
-//!   of each dimension's pair), while each sample on its own is uniform and its dimensions independent:
-//!   the estimate keeps its expected value and its error falls faster than with independent numbers
-//!   where the integrand is smooth (pixel area, light points, BSDF directions). pbrt-v4's
-//!   `PaddedSobolSampler` is the same construction.
-//! - **Everything else** ([`Sampler::for_photon`], [`Sampler::for_key`]) is a counter-based hash
-//!   (PCG-style output permutation over a 64-bit mix of the key): independent numbers, one per dimension.
+//! - **Eye samples and photons** ([`Sampler::for_pixel`], [`Sampler::for_photon`]) draw from
+//!   Owen-scrambled Sobol points, padded: each call (`next_1d` or `next_2d`) is one *dimension* with its
+//!   own 2-D point set over the pixel's samples (over the pass's photons) — the first two Sobol dimensions
+//!   (a (0,2)-sequence), its index shuffled and its coordinates scrambled by hashes of `(seed, pixel or
+//!   pass, dimension)` (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4): nested uniform
+//!   scrambling in its hash form, §3, and the index shuffle of §4). So the samples of one pixel are
+//!   stratified in every dimension (any `2^m` consecutive samples from 0 form a (0,m,2)-net of each
+//!   dimension's pair), while each sample on its own is uniform and its dimensions independent: the
+//!   estimate keeps its expected value and its error falls faster than with independent numbers where the
+//!   integrand is smooth (pixel area, light points, BSDF directions). pbrt-v4's `PaddedSobolSampler` is
+//!   the same construction. The scrambles work on reversed bits, so the hot path is written with the
+//!   reversals cancelled (`fused_points_equal_the_textbook_composition` checks it bit for bit).
+//! - **Keyed streams** ([`Sampler::for_key`]: tests, benchmarks) are a counter-based hash (PCG-style
+//!   output permutation over a 64-bit mix of the key): independent numbers, one per dimension.
 
 use crate::math::Vec2;
 
@@ -25,9 +27,9 @@ use crate::math::Vec2;
 pub struct Sampler {
     key: u64,
     dim: u32,
-    /// `Some(i)`: the stream of sample `i` of the pixel whose hash is `key` (Owen-scrambled Sobol);
-    /// `None`: independent hashed numbers keyed by `key`.
-    sobol_index: Option<u32>,
+    /// `Some(i.reverse_bits())` for point `i` of the Owen-scrambled Sobol points whose scrambles hash from
+    /// `key` (kept reversed, the form the index shuffle takes); `None`: independent hashed numbers.
+    sobol_index_reversed: Option<u32>,
 }
 
 /// 64-bit finaliser (splitmix64 / Stafford variant 13).
@@ -38,19 +40,19 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Nested uniform (Owen) scrambling of `x` read as a binary fraction, bit 31 first: each bit is flipped by
-/// a hash of `seed` and of the bits before it, and the map is a bijection. The hash is Laine and Karras's
-/// permutation applied to the reversed bits (Burley 2020, §3, with its constants): adding the seed and
-/// xoring with multiples by even constants make every bit of the result depend only on the bits below it.
+/// Laine and Karras's permutation with Burley 2020's constants (§3): adding the seed and xoring with
+/// multiples by even constants make bit `j` of the result a function of the seed and of bits `0..=j` of
+/// `v` only, flipping bit `j` or not; every step is invertible, so the map is a bijection. Applied to a
+/// fraction's bits reversed (bit 31 first becomes bit 0), it is Owen's nested uniform scrambling: each bit
+/// of the fraction is flipped by a hash of the seed and of the bits before it.
 #[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    let mut v = x.reverse_bits();
+fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v = v.wrapping_add(seed);
     v ^= v.wrapping_mul(0x6c50_b47c);
     v ^= v.wrapping_mul(0xb82f_1e52);
     v ^= v.wrapping_mul(0xc7af_e638);
     v ^= v.wrapping_mul(0x8d22_f6e6);
-    v.reverse_bits()
+    v
 }
 
 /// The direction numbers of the Sobol sequence's second dimension (primitive polynomial x + 1):
@@ -66,9 +68,10 @@ const fn sobol_dim1_directions() -> [u32; 32] {
     v
 }
 
-/// The second dimension of Sobol point `i`, `⊕ⱼ bitⱼ(i)·vⱼ`, one byte of `i` per table: entry `[b][n]`
-/// is the sum of the directions of the set bits of byte `n` placed at byte `b`.
-static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
+/// The second Sobol dimension of point `i`, `⊕ⱼ bitⱼ(i)·vⱼ`, **bit-reversed** (the form the scramble
+/// takes), one byte of `i` per table: entry `[b][n]` is the reversed sum of the directions of the set bits
+/// of byte `n` placed at byte `b`.
+static SOBOL_DIM1_REVERSED_BYTES: [[u32; 256]; 4] = {
     let v = sobol_dim1_directions();
     let mut t = [[0u32; 256]; 4];
     let mut b = 0;
@@ -83,7 +86,7 @@ static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
                 }
                 bit += 1;
             }
-            t[b][n] = x;
+            t[b][n] = x.reverse_bits();
             n += 1;
         }
         b += 1;
@@ -91,13 +94,13 @@ static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
     t
 };
 
-/// Sobol point `i` of the first two dimensions as 32-bit fractions: the van der Corput radical inverse
-/// (the first dimension's directions are the powers of ½) and the second dimension.
+/// `reverse_bits` of the second Sobol dimension of point `i` (the table lookups of
+/// [`SOBOL_DIM1_REVERSED_BYTES`]).
 #[inline]
-fn sobol_2d(i: u32) -> [u32; 2] {
-    let t = &SOBOL_DIM1_BYTES;
+fn sobol_dim1_reversed(i: u32) -> u32 {
+    let t = &SOBOL_DIM1_REVERSED_BYTES;
     let [b0, b1, b2, b3] = i.to_le_bytes();
-    [i.reverse_bits(), t[0][usize::from(b0)] ^ t[1][usize::from(b1)] ^ t[2][usize::from(b2)] ^ t[3][usize::from(b3)]]
+    t[0][usize::from(b0)] ^ t[1][usize::from(b1)] ^ t[2][usize::from(b2)] ^ t[3][usize::from(b3)]
 }
 
 /// The top 24 bits of a 32-bit fraction as an `f32` in `[0, 1)` (exact, so never rounds up to 1).
@@ -111,25 +114,30 @@ const DIM_SPREAD: u64 = 0x9e37_79b9_7f4a_7c15;
 
 impl Sampler {
     /// Stream for eye sample `sample` of pixel `pixel` (a linear pixel index over the full film): the
-    /// pixel's Owen-scrambled Sobol points (module docs). Samples `2³²` apart share a Sobol index and are
-    /// told apart by the key.
+    /// pixel's Owen-scrambled Sobol points (module docs).
     #[must_use]
     pub fn for_pixel(seed: u64, pixel: u64, sample: u64) -> Self {
-        let pixel_key = mix64(mix64(seed ^ 0x5eed_0000_0000_0001).wrapping_add(pixel).wrapping_mul(DIM_SPREAD));
-        let key = pixel_key ^ mix64(sample >> 32);
-        Self { key, dim: 0, sobol_index: Some(sample as u32) }
+        Self::sobol(mix64(mix64(seed ^ 0x5eed_0000_0000_0001).wrapping_add(pixel).wrapping_mul(DIM_SPREAD)), sample)
     }
 
-    /// Stream for photon `photon` of photon pass `pass`.
+    /// Stream for photon `photon` of photon pass `pass`: the pass's Owen-scrambled Sobol points, so the
+    /// photons of a pass are stratified over the lights' points and directions as a pixel's samples are
+    /// over the pixel.
     #[must_use]
     pub fn for_photon(seed: u64, pass: u64, photon: u64) -> Self {
-        Self { key: mix64(mix64(seed ^ 0x9107_0000_0000_0002).wrapping_add(pass).wrapping_mul(0xd1b5_4a32_d192_ed03) ^ mix64(photon.wrapping_add(0x8765_4321))), dim: 0, sobol_index: None }
+        Self::sobol(mix64(mix64(seed ^ 0x9107_0000_0000_0002).wrapping_add(pass).wrapping_mul(0xd1b5_4a32_d192_ed03)), photon)
+    }
+
+    /// Point `index` of the Owen-scrambled Sobol points whose scrambles hash from `set` (a pixel, a photon
+    /// pass). Indices `2³²` apart share a Sobol index and are told apart by the key.
+    fn sobol(set: u64, index: u64) -> Self {
+        Self { key: set ^ mix64(index >> 32), dim: 0, sobol_index_reversed: Some((index as u32).reverse_bits()) }
     }
 
     /// A general stream keyed by any two integers (benchmarks, tests).
     #[must_use]
     pub fn for_key(seed: u64, a: u64, b: u64) -> Self {
-        Self { key: mix64(mix64(seed ^ 0x0bad_cafe_0000_0003).wrapping_add(a).wrapping_mul(DIM_SPREAD) ^ mix64(b)), dim: 0, sobol_index: None }
+        Self { key: mix64(mix64(seed ^ 0x0bad_cafe_0000_0003).wrapping_add(a).wrapping_mul(DIM_SPREAD) ^ mix64(b)), dim: 0, sobol_index_reversed: None }
     }
 
     /// The hash of the next dimension (and the step to the one after).
@@ -140,21 +148,28 @@ impl Sampler {
         mix64(self.key ^ u64::from(d).wrapping_mul(DIM_SPREAD))
     }
 
-    /// This sample's index in the dimension of hash `h`: the pixel's sample index shuffled by a nested
-    /// uniform scramble (Burley 2020 §4), which keeps every aligned block of `2^m` indices together, so
-    /// the first `2^m` samples are still a (0,m,2)-net.
+    /// The shuffled Sobol index of this point in the dimension of hash `h` — the point's index under a
+    /// nested uniform scramble (Burley 2020 §4: `owen(i)` = reversed Laine–Karras of the reversed index),
+    /// which maps every aligned block of `2^m` indices onto an aligned block, so the first `2^m` samples
+    /// are still a (0,m,2)-net — and the seeds of its two coordinates' scrambles.
     #[inline]
-    fn shuffled(index: u32, h: u64) -> u32 {
-        owen_scramble(index, h as u32)
+    fn shuffled(i_reversed: u32, h: u64) -> (u32, u32, u32) {
+        let shuffle_seed = (h.wrapping_mul(DIM_SPREAD) >> 32) as u32;
+        (laine_karras(i_reversed, shuffle_seed).reverse_bits(), (h >> 32) as u32, h as u32)
     }
 
-    /// The next dimension as a uniform `u32` (for an eye sample: the scrambled first Sobol coordinate).
+    /// The next dimension as a uniform `u32` (for an eye sample or a photon: the Owen-scrambled first
+    /// Sobol coordinate of the shuffled index `s`, `owen(vdc(s)) = reverse(LK(s))` since the van der
+    /// Corput fraction of `s` is `s` reversed).
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let h = self.next_hash();
-        match self.sobol_index {
+        match self.sobol_index_reversed {
             None => (h >> 32) as u32,
-            Some(i) => owen_scramble(Self::shuffled(i, h).reverse_bits(), (h >> 32) as u32),
+            Some(i_reversed) => {
+                let (s, seed_x, _) = Self::shuffled(i_reversed, h);
+                laine_karras(s, seed_x).reverse_bits()
+            }
         }
     }
 
@@ -164,19 +179,21 @@ impl Sampler {
         unit_f32(self.next_u32())
     }
 
-    /// Two uniform numbers in `[0, 1)²`: for an eye sample one dimension, a scrambled 2-D Sobol point;
-    /// otherwise two independent dimensions.
+    /// Two uniform numbers in `[0, 1)²`: for an eye sample or a photon one dimension, a 2-D Sobol point
+    /// with both coordinates Owen-scrambled; otherwise two independent dimensions.
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        match self.sobol_index {
+        match self.sobol_index_reversed {
             None => {
                 let x = self.next_1d();
                 Vec2::new(x, self.next_1d())
             }
-            Some(i) => {
+            Some(i_reversed) => {
                 let h = self.next_hash();
-                let [x, y] = sobol_2d(Self::shuffled(i, h));
-                Vec2::new(unit_f32(owen_scramble(x, (h >> 32) as u32)), unit_f32(owen_scramble(y, mix64(h) as u32)))
+                let (s, seed_x, seed_y) = Self::shuffled(i_reversed, h);
+                let x = laine_karras(s, seed_x).reverse_bits();
+                let y = laine_karras(sobol_dim1_reversed(s), seed_y).reverse_bits();
+                Vec2::new(unit_f32(x), unit_f32(y))
             }
         }
     }
@@ -191,6 +208,42 @@ impl Sampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Owen scrambling of a 32-bit fraction, as Burley 2020 writes it: `reverse ∘ LK ∘ reverse`.
+    fn owen_scramble(x: u32, seed: u32) -> u32 {
+        laine_karras(x.reverse_bits(), seed).reverse_bits()
+    }
+
+    /// Sobol point `i` of the first two dimensions, from the direction numbers bit by bit: the van der
+    /// Corput radical inverse and `⊕ⱼ bitⱼ(i)·vⱼ`.
+    fn sobol_2d(i: u32) -> [u32; 2] {
+        let v = sobol_dim1_directions();
+        let y = (0..32).filter(|j| i >> j & 1 == 1).fold(0, |y, j| y ^ v[j]);
+        [i.reverse_bits(), y]
+    }
+
+    /// The sampler's fused form (reversals cancelled, reversed tables) gives bit for bit the textbook
+    /// composition: shuffle the index, take the Sobol point, scramble each coordinate.
+    #[test]
+    fn fused_points_equal_the_textbook_composition() {
+        for set in [0u64, 7, 0xdead_beef_0000_0001] {
+            for index in (0..300u64).chain([65_535, 65_536, 1 << 24, (1 << 32) - 1, (1 << 32) + 5]) {
+                let mut fast = Sampler::sobol(set, index);
+                let key = set ^ mix64(index >> 32);
+                for d in 0..8u32 {
+                    let h = mix64(key ^ u64::from(d).wrapping_mul(DIM_SPREAD));
+                    let s = owen_scramble(index as u32, (h.wrapping_mul(DIM_SPREAD) >> 32) as u32);
+                    let [x, y] = sobol_2d(s);
+                    let (x, y) = (owen_scramble(x, (h >> 32) as u32), owen_scramble(y, h as u32));
+                    if d % 2 == 0 {
+                        assert_eq!(fast.next_2d(), Vec2::new(unit_f32(x), unit_f32(y)), "set {set} index {index} dim {d}");
+                    } else {
+                        assert_eq!(fast.next_u32(), x, "set {set} index {index} dim {d}");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn deterministic_and_in_range() {
