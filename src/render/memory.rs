@@ -4,7 +4,7 @@
 //!
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
-//!   triangle, and the triangle's shading record (`scene::TriangleShading`, 80 B);
+//!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 130 B: the record (32 B),

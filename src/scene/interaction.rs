@@ -4,7 +4,7 @@
 
 use super::Scene;
 use crate::accel::Hit;
-use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, triangle_normal_area, Frame, Ray, Vec2, Vec3};
+use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
 /// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
 /// target lies on does not occlude it.
@@ -66,7 +66,7 @@ impl Scene {
         let p = b0 * p0 + u * p1 + v * p2;
         let p_error = barycentric_point_error([b0, u, v], [p0, p1, p2]);
         // A zero-area triangle has no normal; face the ray so that spawned rays still leave the surface.
-        let ng = triangle_normal_area([p0, p1, p2]).map_or_else(|| -ray.dir.normalize_or(Vec3::Z), |(n, _)| n);
+        let ng = tri.ng.unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
         let interpolated = if tri.flat { None } else { (b0 * tri.n[0] + u * tri.n[1] + v * tri.n[2]).try_normalize() };
         let mut ns = interpolated.unwrap_or(ng);
         if ns.dot(ng) < 0.0 {

@@ -142,7 +142,8 @@ pub struct Scene {
     /// Per triangle: true when the shading normal is the geometric normal (face_normals, rectangle, cube).
     pub tri_flat: Vec<bool>,
     /// Per triangle: `mesh`, `tri_material` and `tri_flat` at the triangle, in one record (module
-    /// `shading`), read by [`Scene::interaction`]; made at load, from the fields above.
+    /// `shading`, with the triangle's geometric normal), read by [`Scene::interaction`]; made at load, from
+    /// the fields above.
     shading: Vec<TriangleShading>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once).
     pub bsdfs: Vec<Bsdf>,
