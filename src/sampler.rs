@@ -181,7 +181,7 @@ impl Sampler {
 
     /// Two uniform numbers in `[0, 1)²`: for an eye sample or a photon one dimension, a 2-D Sobol point
     /// with both coordinates Owen-scrambled; otherwise two independent dimensions.
-    #[inline]
+    #[inline(always)]
     pub fn next_2d(&mut self) -> Vec2 {
         match self.sobol_index_reversed {
             None => {
@@ -191,9 +191,9 @@ impl Sampler {
             Some(i_reversed) => {
                 let h = self.next_hash();
                 let (s, seed_x, seed_y) = Self::shuffled(i_reversed, h);
-                let x = laine_karras(s, seed_x).reverse_bits();
-                let y = laine_karras(sobol_dim1_reversed(s), seed_y).reverse_bits();
-                Vec2::new(unit_f32(x), unit_f32(y))
+                // Both coordinates' bits turned back in one 64-bit reversal: rev₆₄(a·2³² + b) = rev(b)·2³² + rev(a).
+                let scrambled = (u64::from(laine_karras(s, seed_x)) << 32 | u64::from(laine_karras(sobol_dim1_reversed(s), seed_y))).reverse_bits();
+                Vec2::new(unit_f32(scrambled as u32), unit_f32((scrambled >> 32) as u32))
             }
         }
     }
