@@ -198,6 +198,7 @@ pub const fn gamma(n: u32) -> f32 {
 /// `p = b0·p0 + b1·p1 + b2·p2`: `γ(7)·(|b0·p0| + |b1·p1| + |b2·p2|)` per axis (pbrt-v4 eq. 6.31).
 /// Both backends return barycentrics and the hit point is always rebuilt this way, so one bound
 /// serves both.
+#[inline]
 #[must_use]
 pub fn barycentric_point_error(b: [f32; 3], p: [Vec3; 3]) -> Vec3 {
     gamma(7) * ((b[0] * p[0]).abs() + (b[1] * p[1]).abs() + (b[2] * p[2]).abs())
@@ -209,6 +210,7 @@ pub fn barycentric_point_error(b: [f32; 3], p: [Vec3; 3]) -> Vec3 {
 /// error box `p_error` onto the normal, then one more ULP outward per axis (pbrt-v4 `OffsetRayOrigin`,
 /// §6.8.6). The offset scales with the magnitude of the triangle's coordinates, so scenes at 1e-3 and
 /// 1e4 units both work without a global epsilon.
+#[inline(always)]
 #[must_use]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     let d = ng.abs().dot(p_error);
@@ -233,6 +235,7 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
 /// own rounding error in `t` grows with the size of the triangle's coordinates, so a ray leaving a large
 /// triangle can still report it at `t ≈ 0` (seen on a 20-unit floor). Hits closer than a few times the
 /// hit point's error bound are ignored — the same scale-aware bound, so nothing global is assumed.
+#[inline]
 #[must_use]
 pub fn spawn_t_min(p_error: Vec3, dir: Vec3) -> f32 {
     let len = dir.length();
@@ -280,6 +283,7 @@ pub fn triangle_normal_area(p: [Vec3; 3]) -> Option<(Vec3, f32)> {
 }
 
 /// Smallest f32 greater than `v` (∞ stays ∞; −0 is treated as +0).
+#[inline(always)]
 #[must_use]
 pub fn next_float_up(v: f32) -> f32 {
     if v.is_infinite() && v > 0.0 {
@@ -291,6 +295,7 @@ pub fn next_float_up(v: f32) -> f32 {
 }
 
 /// Largest f32 smaller than `v`.
+#[inline(always)]
 #[must_use]
 pub fn next_float_down(v: f32) -> f32 {
     -next_float_up(-v)

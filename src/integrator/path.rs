@@ -96,9 +96,11 @@ impl<'a> PathTracer<'a> {
         let mut delta_vertices: u32 = 0;
         // Number of segments of the path up to the current hit.
         let mut depth: u32 = 1;
+        // The current ray's unit direction, kept beside `ray` (computed from the value in hand, not read back
+        // from the ray just stored for the backend: that read waited on the stores).
+        let mut dir = ray.dir.normalize();
         loop {
             stats.rays += 1;
-            let dir = ray.dir.normalize();
             let Some(hit) = self.accel.intersect(&ray) else {
                 // Escaped: environment emission, split into the part that emits photons (env maps) and
                 // the part that does not (constant), since only the first has a T1 technique.
@@ -209,6 +211,7 @@ impl<'a> PathTracer<'a> {
             }
             depth += 1;
             ray = si.spawn_ray(wi_world);
+            dir = wi_world.normalize();
         }
         l
     }

@@ -4,7 +4,7 @@
 //!
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
-//!   triangle;
+//!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 130 B: the record (32 B),
@@ -21,7 +21,7 @@ use crate::film::PixelSum;
 use crate::math::Vec3;
 use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
 use crate::photon::{DecodedPhoton, Photon, PhotonBudget};
-use crate::scene::Scene;
+use crate::scene::{Scene, TriangleShading};
 use crate::sys::gb;
 
 use super::{photon_pass_needed, RenderSettings};
@@ -40,7 +40,7 @@ impl MemoryEstimate {
     pub fn of(scene: &Scene, settings: &RenderSettings) -> Self {
         let m = &scene.mesh;
         let vertex = size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
-        let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1));
+        let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1 + size_of::<TriangleShading>() as u64));
         let film = scene.camera.crop().area().saturating_mul(size_of::<PixelSum>() as u64);
         let photon_map = if photon_pass_needed(scene, settings.estimator).is_ok() { photon_map_bytes(settings.photons) } else { 0 };
         Self { mesh, film, photon_map }

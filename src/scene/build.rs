@@ -208,6 +208,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
     Ok(Scene {
         path: name.to_path_buf(),
+        shading: super::shading::shading_records(&mesh, &tri_material, &tri_flat),
         mesh,
         tri_material,
         tri_flat,

@@ -4,7 +4,7 @@
 
 use super::Scene;
 use crate::accel::Hit;
-use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, triangle_normal_area, Frame, Ray, Vec2, Vec3};
+use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
 /// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
 /// target lies on does not occlude it.
@@ -35,6 +35,7 @@ pub struct SurfaceInteraction {
 
 impl SurfaceInteraction {
     /// A ray leaving the surface in direction `dir`, its origin offset to the side `dir` points into.
+    #[inline(always)]
     #[must_use]
     pub fn spawn_ray(&self, dir: Vec3) -> Ray {
         Ray::segment(offset_ray_origin(self.p, self.p_error, self.ng, dir), dir, spawn_t_min(self.p_error, dir), f32::INFINITY)
@@ -42,6 +43,7 @@ impl SurfaceInteraction {
 
     /// A shadow ray towards `p_target`: `dir = p_target − origin` (not normalised), `t ∈ [0, 1 − ε]` with
     /// ε = [`SHADOW_EPSILON`], so only occluders strictly between the two points are found.
+    #[inline(always)]
     #[must_use]
     pub fn spawn_ray_to(&self, p_target: Vec3) -> Ray {
         let origin = offset_ray_origin(self.p, self.p_error, self.ng, p_target - self.p);
@@ -52,26 +54,20 @@ impl SurfaceInteraction {
 
 impl Scene {
     /// Shading data for `hit` on `ray` (the hit must come from an accelerator built over `self.mesh`).
+    #[inline]
     #[must_use]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
-        let i = hit.prim as usize;
-        debug_assert!(i < self.mesh.indices.len(), "hit on triangle {i} of {}", self.mesh.indices.len());
-        let idx = self.mesh.indices[i];
-        let [p0, p1, p2] = idx.map(|k| self.mesh.positions[k as usize]);
+        debug_assert!((hit.prim as usize) < self.triangle_count(), "hit on triangle {} of {}", hit.prim, self.triangle_count());
+        // One record per triangle (positions, normals, material): one cache miss, not an index then vertices.
+        let tri = self.shading(hit.prim);
+        let [p0, p1, p2] = tri.p;
         let (u, v) = (hit.u, hit.v);
         let b0 = 1.0 - u - v;
         let p = b0 * p0 + u * p1 + v * p2;
         let p_error = barycentric_point_error([b0, u, v], [p0, p1, p2]);
         // A zero-area triangle has no normal; face the ray so that spawned rays still leave the surface.
-        let ng = triangle_normal_area([p0, p1, p2]).map_or_else(|| -ray.dir.normalize_or(Vec3::Z), |(n, _)| n);
-        let interpolated = if self.tri_flat[i] {
-            None
-        } else {
-            self.mesh
-                .normals
-                .as_ref()
-                .and_then(|n| (b0 * n[idx[0] as usize] + u * n[idx[1] as usize] + v * n[idx[2] as usize]).try_normalize())
-        };
+        let ng = tri.ng.unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
+        let interpolated = if tri.flat { None } else { (b0 * tri.n[0] + u * tri.n[1] + v * tri.n[2]).try_normalize() };
         let mut ns = interpolated.unwrap_or(ng);
         if ns.dot(ng) < 0.0 {
             ns = -ns;
@@ -84,7 +80,7 @@ impl Scene {
             frame: Frame::from_normal(ns),
             uv: Vec2::new(u, v),
             prim: hit.prim,
-            material: self.tri_material[i],
+            material: tri.material,
         }
     }
 }

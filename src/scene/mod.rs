@@ -108,6 +108,7 @@ mod interaction;
 mod material;
 pub mod precision;
 pub mod settings;
+mod shading;
 mod spans;
 mod transform;
 mod validate;
@@ -120,6 +121,7 @@ pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
 pub use convert::convert_scene;
 pub use error::SceneError;
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};
+pub use shading::TriangleShading;
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
@@ -139,6 +141,10 @@ pub struct Scene {
     pub tri_material: Vec<u32>,
     /// Per triangle: true when the shading normal is the geometric normal (face_normals, rectangle, cube).
     pub tri_flat: Vec<bool>,
+    /// Per triangle: `mesh`, `tri_material` and `tri_flat` at the triangle, in one record (module
+    /// `shading`, with the triangle's geometric normal), read by [`Scene::interaction`]; made at load, from
+    /// the fields above.
+    shading: Vec<TriangleShading>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once).
     pub bsdfs: Vec<Bsdf>,
     pub lights: LightSet,
@@ -214,6 +220,12 @@ impl Scene {
             }
         }
         b
+    }
+
+    /// Triangle `prim`'s shading record.
+    #[must_use]
+    pub fn shading(&self, prim: u32) -> &TriangleShading {
+        &self.shading[prim as usize]
     }
 
     #[must_use]
