@@ -62,11 +62,6 @@ struct GatherBatch {
     index: [u32; BATCH],
 }
 
-thread_local! {
-    /// [`CausticEstimator::gather`]'s batch, one per thread (every entry it reads was written by the same query).
-    static GATHER_BATCH: std::cell::RefCell<GatherBatch> = std::cell::RefCell::new(GatherBatch::default());
-}
-
 impl Default for GatherBatch {
     fn default() -> Self {
         GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH] }
@@ -247,13 +242,12 @@ impl<'a> CausticEstimator<'a> {
         let decoded = map.tree().decoded();
         // Warm-started from the recent queries of this tile with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
-        // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query, before
-        // the search: it does not depend on it, so it runs while the cell's leaves are being loaded.
-        let wo_local = si.frame.to_local(wo_world);
-        let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
         map.tree().knn_warm_from(si.p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, scratch);
         let (r2, delta_area) = self.estimate_area(scratch.r2());
+        let wo_local = si.frame.to_local(wo_world);
+        // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
+        let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
         let mut q1_range = Q1Range::default();
@@ -263,42 +257,40 @@ impl<'a> CausticEstimator<'a> {
         // all of them at once (`BsdfAtWo::f_pdf_many`, vectorised), then the weighted sum in the
         // neighbours' order.
         let mis = self.estimator == Estimator::Mis;
-        // The thread's batch buffer (2 KiB: zeroing a fresh one per query was ~1% of a cornell-caustics render).
-        GATHER_BATCH.with_borrow_mut(|batch| {
-            for chunk in scratch.neighbors().chunks(BATCH) {
-                let mut n = 0;
-                for nb in chunk {
-                    if nb.dist2 > r2 {
+        let mut batch = GatherBatch::default();
+        for chunk in scratch.neighbors().chunks(BATCH) {
+            let mut n = 0;
+            for nb in chunk {
+                if nb.dist2 > r2 {
+                    continue;
+                }
+                let wi_local = si.frame.to_local(decoded[nb.index as usize].wi);
+                (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
+                n += 1;
+            }
+            used += n as u32;
+            let [wx, wy, wz] = &batch.wi;
+            let [fr, fg, fb] = &mut batch.f;
+            bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
+            // One loop per estimator (not a match per photon): `w₁·f·Φ` for `mis`, `f·Φ` for `pm`.
+            if mis {
+                for j in 0..n {
+                    let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
+                    if f == Vec3::ZERO {
                         continue;
                     }
-                    let wi_local = si.frame.to_local(decoded[nb.index as usize].wi);
-                    (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
-                    n += 1;
+                    let ph = &decoded[batch.index[j] as usize];
+                    let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit, batch.wi[2][j].abs(), batch.pdf[j]);
+                    q1_range.add(q1);
+                    sum += (mis_weight_pair(q1, q2).0 * f) * ph.power;
                 }
-                used += n as u32;
-                let [wx, wy, wz] = &batch.wi;
-                let [fr, fg, fb] = &mut batch.f;
-                bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
-                // One loop per estimator (not a match per photon): `w₁·f·Φ` for `mis`, `f·Φ` for `pm`.
-                if mis {
-                    for j in 0..n {
-                        let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
-                        if f == Vec3::ZERO {
-                            continue;
-                        }
-                        let ph = &decoded[batch.index[j] as usize];
-                        let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit, batch.wi[2][j].abs(), batch.pdf[j]);
-                        q1_range.add(q1);
-                        sum += (mis_weight_pair(q1, q2).0 * f) * ph.power;
-                    }
-                } else {
-                    for j in 0..n {
-                        let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
-                        sum += f * decoded[batch.index[j] as usize].power;
-                    }
+            } else {
+                for j in 0..n {
+                    let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
+                    sum += f * decoded[batch.index[j] as usize].power;
                 }
             }
-        });
+        }
         Gather { l1: sum / delta_area, delta_area, photons: used, q1: q1_range }
     }
 
