@@ -54,7 +54,7 @@ impl SurfaceInteraction {
 
 impl Scene {
     /// Shading data for `hit` on `ray` (the hit must come from an accelerator built over `self.mesh`).
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
         debug_assert!((hit.prim as usize) < self.triangle_count(), "hit on triangle {} of {}", hit.prim, self.triangle_count());
