@@ -3,6 +3,10 @@ scenes/reference/cornell-caustics/README.md) with the two spheres loaded from th
 sphere generator wrote, so that both renderers trace identical triangles.
 
   python bench_vs_mitsuba_mi.py MIRROR.ply GLASS.ply OUT.exr --spp N --threads T [--seconds S] [--pass-spp P]
+                                 [--sampler TYPE]
+
+--sampler: Mitsuba's sampler plugin (default `independent`, its default; `ldsampler`, `multijitter`, ... for a
+stratified one like caustica's own).
 
 Renders passes of P spp (distinct seeds) after one untimed pass that compiles the kernel: until N spp with
 --spp N, or until S seconds are spent with --seconds S; the image is the passes' mean.
@@ -19,7 +23,7 @@ mi.set_variant("llvm_ad_rgb")
 T = mi.ScalarTransform4f
 
 
-def scene_dict(mirror_ply, glass_ply, width, height):
+def scene_dict(mirror_ply, glass_ply, width, height, sampler):
     def diffuse(rgb):
         return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}}
 
@@ -32,7 +36,7 @@ def scene_dict(mirror_ply, glass_ply, width, height):
             "fov": 39.3077,
             "fov_axis": "smaller",
             "to_world": T().look_at(origin=[0, 0, 3.9], target=[0, 0, 0], up=[0, 1, 0]),
-            "sampler": {"type": "independent"},
+            "sampler": {"type": sampler},
             "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
                      "pixel_format": "rgb"},
         },
@@ -64,9 +68,17 @@ def main():
     ap.add_argument("--width", type=int, default=256)
     ap.add_argument("--height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--sampler", default="independent")
     a = ap.parse_args()
+    if a.sampler == "ldsampler":
+        # Mitsuba rounds the low-discrepancy sampler's count up to a square power of two (4, 16, 64, ...):
+        # render passes of that size, so that the samples counted are the samples rendered.
+        n = 1
+        while n < a.pass_spp:
+            n *= 4
+        a.pass_spp = n
     dr.set_thread_count(a.threads)
-    scene = mi.load_dict(scene_dict(a.mirror_ply, a.glass_ply, a.width, a.height))
+    scene = mi.load_dict(scene_dict(a.mirror_ply, a.glass_ply, a.width, a.height, a.sampler))
 
     def render(spp, seed):
         img = mi.render(scene, spp=spp, seed=seed)

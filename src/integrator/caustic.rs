@@ -130,7 +130,7 @@ pub struct CausticOrigin {
 pub struct Gather {
     /// `L₁(x, ωₒ) = Σₚ w₁(p)·f(x, ωₒ, ωₚ)·Φₚ / ΔA` (method.md §3).
     pub l1: Vec3,
-    /// `ΔA = π r²`, clamped from below by [`CausticEstimator::min_area`].
+    /// `ΔA = π r²`, clamped from below by [`CausticEstimator::min_area`] at `x`.
     pub delta_area: f32,
     /// Number of photons that entered the estimate.
     pub photons: u32,
@@ -144,8 +144,9 @@ pub struct CausticEstimator<'a> {
     map: Option<&'a PhotonMap>,
     knn: usize,
     max_radius: f32,
-    /// Lower bound on ΔA: coincident photons give r → 0 (method.md §3). See [`min_delta_area`].
-    min_area: f32,
+    /// The radius of the photons' bounding sphere (the scene's when they have none), a scale of the floor
+    /// of ΔA ([`min_delta_area`]).
+    photons_radius: f32,
     /// `s ∈ (0, 1]`: the estimate uses the photons within `r² = s·r²_kNN` and `ΔA = π·s·r²_kNN` (the
     /// progressive schedule of method.md §6; 1 = the plain k-NN estimate).
     area_scale: f32,
@@ -153,16 +154,26 @@ pub struct CausticEstimator<'a> {
     occupancy: Option<OccupancyGrid>,
 }
 
-/// Lower bound on ΔA (method.md §3): `π·r_floor²` with `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R)`, R the
-/// radius of the photons' bounding sphere (5·10⁻⁵·R is 10⁻³ of the default `r_max` = 5% of the scene's
-/// radius in an ordinary scene). It follows the scale of the photon density, never the user's search
-/// bound alone (a clamp of `π(10⁻³·r_max)²` made every estimate of a render with `r_max` = 10⁶ cover
-/// 3·10⁶ units², which erased the caustic, issue 13 §2) nor the whole scene's size (a dim light of side
-/// 2·10³ over a 3-unit scene made the floor blur the caustic away, 21% dark). The `r_max` term keeps the
-/// floor below `π·r_max²`, the largest area an estimate can have.
+/// Lower bound on ΔA at the query point `x` (method.md §3): coincident photons give r → 0, and ΔA divides
+/// the estimate. `π·r_floor²` with
+///
+/// `r_floor = min(10⁻³·r_max, 5·10⁻⁵·R, max(4ε·‖x‖∞, 10⁻⁹·R))`,
+///
+/// R the radius of the photons' bounding sphere, ε the f32 epsilon. Each term is a scale the floor must
+/// stay under:
+/// - `10⁻³·r_max` keeps it below `π·r_max²`, the largest area an estimate can have;
+/// - `5·10⁻⁵·R` follows the extent of the photons (10⁻³ of the default `r_max`, 5% of the scene's radius,
+///   in an ordinary scene), never the user's search bound alone (a clamp of `π(10⁻³·r_max)²` made every
+///   estimate of a render with `r_max` = 10⁶ cover 3·10⁶ units², which erased the caustic, issue 13 §2)
+///   nor the whole scene's size (a dim light of side 2·10³ over a 3-unit scene blurred the caustic away);
+/// - `4ε·‖x‖∞`, four units in the last place of `x`'s coordinates, is the finest area positions at `x`
+///   resolve: the extent R is set by the farthest photon, and one photon scattered 470 units away on a
+///   ground plane of half side 10⁴ made R = 278 and the floor (0.014)² — wider than a glass sphere's focus
+///   3 units from it, whose caustic came out 42% dark. Near the origin `10⁻⁹·R` keeps the floor above 0.
 #[must_use]
-pub fn min_delta_area(max_radius: f32, photons_radius: f32) -> f32 {
-    let r_floor = (1e-3 * max_radius).min(5e-5 * photons_radius);
+pub fn min_delta_area(max_radius: f32, photons_radius: f32, x: Vec3) -> f32 {
+    let resolved = (4.0 * f32::EPSILON * x.abs().max_element()).max(1e-9 * photons_radius);
+    let r_floor = (1e-3 * max_radius).min(5e-5 * photons_radius).min(resolved);
     (std::f32::consts::PI * r_floor * r_floor).max(f32::MIN_POSITIVE)
 }
 
@@ -175,7 +186,7 @@ impl<'a> CausticEstimator<'a> {
         let map = if estimator == Estimator::Pt { None } else { map };
         let photons_radius = map.map(|m| m.tree().bounds().bounding_sphere().1).filter(|r| *r > 0.0 && r.is_finite()).unwrap_or(scene_radius);
         let occupancy = map.and_then(|m| OccupancyGrid::new(m.tree(), max_radius));
-        Self { estimator, map, knn: knn.max(1), max_radius, min_area: min_delta_area(max_radius, photons_radius), area_scale: 1.0, occupancy }
+        Self { estimator, map, knn: knn.max(1), max_radius, photons_radius, area_scale: 1.0, occupancy }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
@@ -197,9 +208,10 @@ impl<'a> CausticEstimator<'a> {
         self.estimator
     }
 
+    /// The floor of ΔA at `x` ([`min_delta_area`]).
     #[must_use]
-    pub fn min_area(&self) -> f32 {
-        self.min_area
+    pub fn min_area(&self, x: Vec3) -> f32 {
+        min_delta_area(self.max_radius, self.photons_radius, x)
     }
 
     /// `q₁ = N·p_emit·|cos θ|·ΔA / α` — paper eq. 2 (where `p_emit = Le/Φ`), method.md §4. Computed in
@@ -226,13 +238,13 @@ impl<'a> CausticEstimator<'a> {
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut KnnResult) -> Gather {
         let Some(map) = self.map else {
-            return Gather { l1: Vec3::ZERO, delta_area: self.min_area, photons: 0, q1: Q1Range::default() };
+            return Gather { l1: Vec3::ZERO, delta_area: self.min_area(si.p), photons: 0, q1: Q1Range::default() };
         };
         let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near(si.p));
         if near == Near::Empty {
             // No photon within max_radius: what the search would return (no photon, r² = max_radius²),
             // for one memory read.
-            let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius);
+            let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius, si.p);
             return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
         }
         let ng = si.ng;
@@ -244,7 +256,7 @@ impl<'a> CausticEstimator<'a> {
         let key = acceptance_key(ng, wo_side > 0.0);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
         map.tree().knn_warm_from(si.p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, scratch);
-        let (r2, delta_area) = self.estimate_area(scratch.r2());
+        let (r2, delta_area) = self.estimate_area(scratch.r2(), si.p);
         let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
@@ -294,10 +306,10 @@ impl<'a> CausticEstimator<'a> {
         Gather { l1: sum / delta_area, delta_area, photons: used, q1: q1_range }
     }
 
-    /// The squared radius `s·r²_kNN` of the estimate and its area ΔA (clamped, method.md §3, §6).
-    fn estimate_area(&self, r2_knn: f32) -> (f32, f32) {
+    /// The squared radius `s·r²_kNN` of the estimate at `x` and its area ΔA (clamped, method.md §3, §6).
+    fn estimate_area(&self, r2_knn: f32, x: Vec3) -> (f32, f32) {
         let r2 = r2_knn * self.area_scale;
-        (r2, (std::f32::consts::PI * r2).max(self.min_area))
+        (r2, (std::f32::consts::PI * r2).max(self.min_area(x)))
     }
 
     /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,
@@ -375,6 +387,42 @@ mod tests {
         assert!((shrunk - 1.0).abs() < 0.04, "s = 1/4: mean/exact {shrunk}, expected 1");
         // ΔA is the area of the estimate that was made (the one q₁ takes).
         assert!(area_plain < 1e-6 && area_shrunk < 1e-6, "ΔA ≠ π·s·r²: {area_plain} {area_shrunk}");
+    }
+
+    /// One photon far away must not blur a caustic (the floor of ΔA, [`min_delta_area`]): 2,000 photons in a
+    /// disk of radius 10⁻³ (r_k ≈ 10⁻⁴ at its centre for k = 20) give the same estimate, over the unclamped
+    /// k-NN area, with and without a photon 500 units away. That photon makes the photons' bounding radius
+    /// 250, and the floor without the precision term `min(10⁻³·r_max, 5·10⁻⁵·R)` = 10⁻³, ten times r_k.
+    #[test]
+    fn a_far_photon_does_not_widen_the_floor_of_the_area() {
+        let centre = Vec3::new(0.5, 0.0, 0.5);
+        let mut s = Sampler::for_key(4, 0, 0);
+        let disk: Vec<Photon> = (0..2000)
+            .map(|_| {
+                let u = crate::sampling::warp::square_to_uniform_disk_concentric(s.next_2d());
+                Photon::new(centre + 1e-3 * Vec3::new(u.x, u.y, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0)
+            })
+            .collect();
+        let mut with_outlier = disk.clone();
+        with_outlier.push(Photon::new(Vec3::new(500.0, 0.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0));
+        let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
+        let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
+        let mut scratch = KnnResult::default();
+        let mut estimate = |photons: Vec<Photon>| {
+            let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
+            let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 1.0, 1.0);
+            let g = est.gather(&si, Vec3::Z, &bsdf, 1.0, &mut scratch);
+            let knn_area = std::f32::consts::PI * scratch.r2();
+            assert!(knn_area < 1e-7 && g.delta_area == knn_area, "ΔA {} clamped above the k-NN area {knn_area}", g.delta_area);
+            g.l1.x
+        };
+        let (plain, far) = (estimate(disk), estimate(with_outlier));
+        assert!((far / plain - 1.0).abs() < 1e-5, "with a far photon {far}, without {plain}");
+        // The floor still follows the user's bound and the photons' extent where those are smaller.
+        assert!(min_delta_area(1e-6, 1.0, centre) <= std::f32::consts::PI * 1e-18 * 1.0001);
+        assert!(min_delta_area(1.0, 1e-6, centre) <= std::f32::consts::PI * (5e-11f32).powi(2) * 1.0001);
+        // And stays positive at the origin.
+        assert!(min_delta_area(1.0, 1.0, Vec3::ZERO) > 0.0);
     }
 
     #[test]

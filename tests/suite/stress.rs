@@ -592,7 +592,10 @@ fn q1_extremes_through_real_renders() {
 /// Parts of a scene far larger than its caustics must not blur them away: a ground plane of half side 10⁴
 /// and a dim light of half side 10³ beside a 3-unit scene. The floor of ΔA followed the scene's radius
 /// (`caustic::min_delta_area`), and pm/mis were 17% dark with the big plane, 21% with the big light; it
-/// now follows the photons' extent, and black surfaces (the lights) store no photon. pm and mis must agree
+/// now follows the photons' extent, and black surfaces (the lights) store no photon. That extent is set by
+/// the farthest photon: with stratified photons one landed 470 units out on the big plane, the floor grew
+/// to (0.014)² and the caustic was 42% dark; the floor is now also bounded by the precision of positions at
+/// the query point (`min_delta_area`'s `4ε·‖x‖∞` term). pm and mis must agree
 /// with the small scene's (same photons, same caustic) and with pt, which finds the light (half side
 /// 0.05) through the glass.
 #[test]
