@@ -70,6 +70,13 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--sampler", default="independent")
     a = ap.parse_args()
+    if a.sampler == "ldsampler":
+        # Mitsuba rounds the low-discrepancy sampler's count up to a square power of two (4, 16, 64, ...):
+        # render passes of that size, so that the samples counted are the samples rendered.
+        n = 1
+        while n < a.pass_spp:
+            n *= 4
+        a.pass_spp = n
     dr.set_thread_count(a.threads)
     scene = mi.load_dict(scene_dict(a.mirror_ply, a.glass_ply, a.width, a.height, a.sampler))
 

@@ -27,7 +27,7 @@
 use rayon::prelude::*;
 
 use super::record::{DecodedPhoton, Photon};
-use crate::math::{Aabb, Vec3, Vec3A};
+use crate::math::{Aabb, Vec3, Vec3A, Vec4};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
 /// --leaf N` at k = 50: 16, 24 and 32 are within noise of each other and ~5% faster than 8 (4: ~15% slower);
@@ -166,9 +166,11 @@ pub enum SearchFrom<'a> {
 pub struct KdTree {
     /// The photons, reordered so that each leaf is a contiguous range.
     photons: Vec<Photon>,
-    /// The photons' positions in tree order, packed (12 bytes instead of 32 per photon): the leaf scan
-    /// reads only these, so a 16-photon leaf is 3 cache lines instead of 8.
-    positions: Vec<[f32; 3]>,
+    /// The photons' positions in tree order as a structure of arrays (x, y, z; 12 bytes instead of 32 per
+    /// photon): the leaf scan reads only these, [`LEAF_GROUP`] photons at a time with vector loads. Each
+    /// array has [`LEAF_GROUP`] − 1 entries of padding at its end, so that every group is a whole
+    /// `LEAF_GROUP`-slice (the entries past the leaf's end are masked off).
+    positions: Positions,
     /// The photons' direction, `p_emit` and power ([`DecodedPhoton`]), decoded once at build time (tree
     /// order): the acceptance test and the density estimate never decode the octahedral code per query, and
     /// the estimate reads one 32-byte record per photon, the one the acceptance test already loaded.
@@ -181,6 +183,30 @@ pub struct KdTree {
     /// Tight bounds of all photons (the root's box).
     root: Bounds,
     dropped_non_finite: usize,
+}
+
+/// Positions as a structure of arrays ([`KdTree::positions`]).
+#[derive(Clone, Debug, Default)]
+struct Positions {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Positions {
+    fn new(photons: &[Photon]) -> Self {
+        let axis = |a: usize| photons.iter().map(|p| p.position_array()[a]).chain(std::iter::repeat_n(0.0, LEAF_GROUP - 1)).collect();
+        Positions { x: axis(0), y: axis(1), z: axis(2) }
+    }
+
+    #[cfg(test)]
+    fn get(&self, i: usize) -> [f32; 3] {
+        [self.x[i], self.y[i], self.z[i]]
+    }
+
+    fn memory_bytes(&self) -> usize {
+        (self.x.capacity() + self.y.capacity() + self.z.capacity()) * std::mem::size_of::<f32>()
+    }
 }
 
 /// One neighbour found by [`KdTree::knn`]: squared distance to the query and index into [`KdTree::photons`].
@@ -348,7 +374,7 @@ impl KdTree {
         ];
         let root = bounds_of(&photons);
         build_recursive(&mut photons, root, &mut nodes, depth);
-        let positions = photons.iter().map(|p| *p.position_array()).collect();
+        let positions = Positions::new(&photons);
         let decoded = photons.iter().map(Photon::decoded).collect();
         let mut leaves = Vec::with_capacity(1 << depth);
         collect_leaves(&nodes, 0, depth, 0, n, NodeBox::new(root), &mut leaves);
@@ -411,7 +437,7 @@ impl KdTree {
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         self.photons.capacity() * std::mem::size_of::<Photon>()
-            + self.positions.capacity() * std::mem::size_of::<[f32; 3]>()
+            + self.positions.memory_bytes()
             + self.decoded.capacity() * std::mem::size_of::<DecodedPhoton>()
             + self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
@@ -547,7 +573,7 @@ impl KdTree {
         match from {
             SearchFrom::Root => {
                 if self.root.dist2(&search.q) <= search.limit {
-                    search.descend(0, self.depth, 0, self.photons.len());
+                    search.descend(self.depth, self.photons.len());
                 }
             }
             SearchFrom::Leaves(ids) => {
@@ -568,7 +594,7 @@ impl KdTree {
 
 /// State of one k-NN search.
 struct Search<'a, F> {
-    positions: &'a [[f32; 3]],
+    positions: &'a Positions,
     nodes: &'a [Node],
     q: [f32; 3],
     k: usize,
@@ -579,52 +605,76 @@ struct Search<'a, F> {
 }
 
 impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
-    /// Visits the subtree rooted at `node` (height `h`) covering photons `[lo, hi)`.
-    fn descend(&mut self, node: usize, h: u32, lo: usize, hi: usize) {
-        if h == 0 {
-            self.scan_leaf(lo, hi);
-            return;
-        }
-        let [bl, br] = &self.nodes[node].children;
+    /// Visits the tree of height `depth` over photons `[0, n)`: depth first, the nearer child first, a
+    /// child skipped when its box is beyond the limit (the farther child's box distance is tested again
+    /// when its turn comes, against the limit the nearer subtree left). A loop over an explicit stack
+    /// (one entry per level at most), not recursion: no call per node.
+    fn descend(&mut self, depth: u32, n: usize) {
+        // (node, height, lo, hi, box distance) of the farther children still to visit.
+        let mut stack = [(0usize, 0u32, 0usize, 0usize, 0.0f32); MAX_DEPTH];
+        let mut top = 0;
+        let (mut node, mut h, mut lo, mut hi) = (0usize, depth, 0usize, n);
         let q = Vec3A::from_array(self.q);
-        let (dl, dr) = (bl.dist2(q), br.dist2(q));
-        let mid = lo + (hi - lo) / 2;
-        let (left, right) = (node + 1, node + (1usize << (h - 1)));
-        if dl <= dr {
-            if dl <= self.limit {
-                self.descend(left, h - 1, lo, mid);
+        loop {
+            if h > 0 {
+                let [bl, br] = &self.nodes[node].children;
+                let (dl, dr) = (bl.dist2(q), br.dist2(q));
+                let mid = lo + (hi - lo) / 2;
+                let left = (node + 1, h - 1, lo, mid, dl);
+                let right = (node + (1usize << (h - 1)), h - 1, mid, hi, dr);
+                let (near, far) = if dl <= dr { (left, right) } else { (right, left) };
+                if near.4 <= self.limit {
+                    // The limit only shrinks: a farther child beyond it now stays beyond it.
+                    if far.4 <= self.limit {
+                        stack[top] = far;
+                        top += 1;
+                    }
+                    (node, h, lo, hi) = (near.0, near.1, near.2, near.3);
+                    continue;
+                }
+                // The farther child is no nearer than the nearer one: both are beyond the limit.
+            } else {
+                self.scan_leaf(lo, hi);
             }
-            if dr <= self.limit {
-                self.descend(right, h - 1, mid, hi);
-            }
-        } else {
-            if dr <= self.limit {
-                self.descend(right, h - 1, mid, hi);
-            }
-            if dl <= self.limit {
-                self.descend(left, h - 1, lo, mid);
+            // Next: the most recently deferred child still within the limit.
+            loop {
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                let e = stack[top];
+                if e.4 <= self.limit {
+                    (node, h, lo, hi) = (e.0, e.1, e.2, e.3);
+                    break;
+                }
             }
         }
     }
 
     /// Offers the leaf's photons within the limit, in groups of [`LEAF_GROUP`]: the distances of a group
-    /// first (a loop without branches, vectorised), then only the photons within the limit of the group's
-    /// start (a bit mask) are tested again against the current limit and `accept`.
+    /// first, four photons per SIMD vector (`Vec4` over the x, y, z arrays: the same f32 operations in the
+    /// same order per lane), with a bit mask of those within the limit of the group's start (`movmskps`);
+    /// then only those are tested again against the current limit and `accept`.
     #[inline]
     fn scan_leaf(&mut self, lo: usize, hi: usize) {
-        let [qx, qy, qz] = self.q;
+        let [qx, qy, qz] = self.q.map(Vec4::splat);
+        let Positions { x: xs, y: ys, z: zs } = self.positions;
         let mut start = lo;
-        for group in self.positions[lo..hi].chunks(LEAF_GROUP) {
+        while start < hi {
+            let len = (hi - start).min(LEAF_GROUP);
+            let limit = Vec4::splat(self.limit);
             let mut d2 = [0.0f32; LEAF_GROUP];
-            for (d, &[x, y, z]) in d2.iter_mut().zip(group) {
-                let (dx, dy, dz) = (x - qx, y - qy, z - qz);
-                *d = (dx * dx + dy * dy) + dz * dz;
-            }
-            let limit = self.limit;
             let mut inside = 0u32;
-            for (j, &d) in d2.iter().enumerate().take(group.len()) {
-                inside |= u32::from(d <= limit) << j;
+            // Whole vectors: the arrays are padded (`KdTree::positions`); lanes past the leaf are masked off.
+            for c in 0..len.div_ceil(4) {
+                let (o, lanes) = (start + 4 * c, 4 * c..4 * c + 4);
+                let (dx, dy, dz) = (Vec4::from_slice(&xs[o..o + 4]) - qx, Vec4::from_slice(&ys[o..o + 4]) - qy, Vec4::from_slice(&zs[o..o + 4]) - qz);
+                let d = (dx * dx + dy * dy) + dz * dz;
+                d.write_to_slice(&mut d2[lanes]);
+                inside |= d.cmple(limit).bitmask() << (4 * c);
             }
+            // The leaf's photons only (LEAF_GROUP < 32).
+            inside &= (1u32 << len) - 1;
             while inside != 0 {
                 let j = inside.trailing_zeros() as usize;
                 inside &= inside - 1;
@@ -632,7 +682,7 @@ impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
                     self.offer(d2[j], (start + j) as u32);
                 }
             }
-            start += group.len();
+            start += len;
         }
     }
 
@@ -653,6 +703,10 @@ impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
         }
     }
 }
+
+/// The tree's depth at most (photon counts fit u32, leaves hold at least one photon): the size of
+/// [`Search::descend`]'s stack.
+const MAX_DEPTH: usize = 33;
 
 /// Photons whose distances [`Search::scan_leaf`] computes at once (a leaf of [`DEFAULT_LEAF_SIZE`] is one
 /// group; a bit each in a `u32` mask).
@@ -858,8 +912,8 @@ mod tests {
             assert!(t.leaves_near_box(min, max, reach, usize::MAX, &mut ids));
             assert!(ids.windows(2).all(|w| w[0] < w[1]), "left to right");
             for (id, leaf) in t.leaves.iter().enumerate() {
-                let near = t.positions[leaf.lo as usize..leaf.hi as usize].iter().any(|&p| {
-                    let p = Vec3::from_array(p);
+                let near = (leaf.lo as usize..leaf.hi as usize).any(|i| {
+                    let p = Vec3::from_array(t.positions.get(i));
                     p.cmpge(min - Vec3::splat(reach)).all() && p.cmple(max + Vec3::splat(reach)).all()
                 });
                 assert!(!near || ids.contains(&(id as u32)), "leaf {id} holds a photon in reach");
