@@ -27,8 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
-use crate::integrator::{CausticEstimator, PathStats, PathTracer, Q1Range};
-use crate::photon::kdtree::KnnResult;
+use crate::integrator::{CausticEstimator, GatherScratch, PathStats, PathTracer, Q1Range};
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
 use crate::scene::settings::defaults;
@@ -345,7 +344,7 @@ pub fn render_share(
                 }
                 let mut buf = TileBuffer::new(*tile);
                 let mut ps = PathStats::default();
-                let mut knn = KnnResult::default();
+                let mut scratch = GatherScratch::default();
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let pixel = u64::from(y) * width + u64::from(x);
@@ -353,7 +352,7 @@ pub fn render_share(
                             let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
                             let j = sampler.next_2d();
                             let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
-                            let l = tracer.li(ray, &mut sampler, &mut ps, &mut knn);
+                            let l = tracer.li(ray, &mut sampler, &mut ps, &mut scratch);
                             buf.add(x, y, l);
                         }
                     }

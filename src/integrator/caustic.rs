@@ -55,6 +55,7 @@ fn acceptance_key(ng: Vec3, wo_above: bool) -> u64 {
 const BATCH: usize = 64;
 
 /// One batch of the density estimate: local directions, BSDF values and pdfs, photon indices.
+#[derive(Clone, Debug)]
 struct GatherBatch {
     wi: [[f32; BATCH]; 3],
     f: [[f32; BATCH]; 3],
@@ -66,6 +67,16 @@ impl Default for GatherBatch {
     fn default() -> Self {
         GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH] }
     }
+}
+
+/// What [`CausticEstimator::gather`] reuses from one query to the next: the k-NN result (with the recent
+/// queries its warm start reads) and the batch buffer (2 KiB, zeroed once here rather than once per query:
+/// a query reads only the entries it wrote). One per tile, so results do not depend on which queries a
+/// thread made before.
+#[derive(Clone, Debug, Default)]
+pub struct GatherScratch {
+    pub knn: KnnResult,
+    batch: GatherBatch,
 }
 
 /// The smallest and largest q₁ (method.md §4) that reached the MIS function in a render: finite, positive
@@ -236,7 +247,8 @@ impl<'a> CausticEstimator<'a> {
     /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
-    pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut KnnResult) -> Gather {
+    pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut GatherScratch) -> Gather {
+        let GatherScratch { knn, batch } = scratch;
         let Some(map) = self.map else {
             return Gather { l1: Vec3::ZERO, delta_area: self.min_area(si.p), photons: 0, q1: Q1Range::default() };
         };
@@ -255,8 +267,8 @@ impl<'a> CausticEstimator<'a> {
         // Warm-started from the recent queries of this tile with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
-        map.tree().knn_warm_from(si.p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, scratch);
-        let (r2, delta_area) = self.estimate_area(scratch.r2(), si.p);
+        map.tree().knn_warm_from(si.p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, knn);
+        let (r2, delta_area) = self.estimate_area(knn.r2(), si.p);
         let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
@@ -265,12 +277,11 @@ impl<'a> CausticEstimator<'a> {
         let mut q1_range = Q1Range::default();
         // q₁ = (N·ΔA/α)·p_emit·|cos θ|: the bracket is the same for every photon of this estimate.
         let q1_scale = self.q1(1.0, 1.0, delta_area, alpha);
-        // In batches (structure of arrays on the stack): the photons' local directions, then the BSDF of
-        // all of them at once (`BsdfAtWo::f_pdf_many`, vectorised), then the weighted sum in the
+        // In batches (structure of arrays, in the tile's scratch): the photons' local directions, then the
+        // BSDF of all of them at once (`BsdfAtWo::f_pdf_many`, vectorised), then the weighted sum in the
         // neighbours' order.
         let mis = self.estimator == Estimator::Mis;
-        let mut batch = GatherBatch::default();
-        for chunk in scratch.neighbors().chunks(BATCH) {
+        for chunk in knn.neighbors().chunks(BATCH) {
             let mut n = 0;
             for nb in chunk {
                 if nb.dist2 > r2 {
@@ -349,7 +360,7 @@ mod tests {
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
         let mut sum = 0.0f64;
         let mut worst_area = 0.0f32;
-        let mut scratch = KnnResult::default();
+        let mut scratch = GatherScratch::default();
         for map_index in 0..maps {
             let photons: Vec<Photon> = (0..m)
                 .map(|i| {
@@ -364,7 +375,7 @@ mod tests {
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
                 let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
                 let g = est.gather(&si, Vec3::Z, &bsdf, 1.0, &mut scratch);
-                worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * scratch.r2()).abs() / g.delta_area);
+                worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * scratch.knn.r2()).abs() / g.delta_area);
                 sum += f64::from(g.l1.x);
             }
         }
@@ -407,12 +418,12 @@ mod tests {
         with_outlier.push(Photon::new(Vec3::new(500.0, 0.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0));
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
         let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
-        let mut scratch = KnnResult::default();
+        let mut scratch = GatherScratch::default();
         let mut estimate = |photons: Vec<Photon>| {
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
             let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 1.0, 1.0);
             let g = est.gather(&si, Vec3::Z, &bsdf, 1.0, &mut scratch);
-            let knn_area = std::f32::consts::PI * scratch.r2();
+            let knn_area = std::f32::consts::PI * scratch.knn.r2();
             assert!(knn_area < 1e-7 && g.delta_area == knn_area, "ΔA {} clamped above the k-NN area {knn_area}", g.delta_area);
             g.l1.x
         };

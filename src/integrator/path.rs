@@ -6,12 +6,11 @@
 //! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
 //! through `x S⁺ L` can be weighted by `w₂`.
 
-use super::caustic::{CausticEstimator, CausticOrigin, Q1Range};
+use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, Q1Range};
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
 use crate::light::Light;
 use crate::math::{Ray, Vec3};
-use crate::photon::kdtree::KnnResult;
 use crate::sampler::Sampler;
 use crate::sampling::mis::power_heuristic;
 use crate::scene::Scene;
@@ -82,7 +81,7 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Radiance along `ray` (a camera ray), estimated with one path.
-    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, stats: &mut PathStats, knn: &mut KnnResult) -> Vec3 {
+    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
         let scene = self.scene;
         let lights = &scene.lights;
         let max_depth = self.max_depth();
@@ -172,7 +171,7 @@ impl<'a> PathTracer<'a> {
             let mut delta_area = None;
             let alpha = if first_non_delta { self.alpha } else { 1.0 };
             if non_delta && self.caustics.active() {
-                let g = self.caustics.gather(&si, wo_world, bsdf, alpha, knn);
+                let g = self.caustics.gather(&si, wo_world, bsdf, alpha, scratch);
                 stats.knn_queries += 1;
                 stats.q1.merge(&g.q1);
                 l += beta * g.l1;
