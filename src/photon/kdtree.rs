@@ -666,11 +666,13 @@ impl<F: Fn(usize) -> bool + Copy> Search<'_, F> {
             let mut d2 = [0.0f32; LEAF_GROUP];
             let mut inside = 0u32;
             // Whole vectors: the arrays are padded (`KdTree::positions`); lanes past the leaf are masked off.
-            for c in 0..len.div_ceil(4) {
-                let (o, lanes) = (start + 4 * c, 4 * c..4 * c + 4);
-                let (dx, dy, dz) = (Vec4::from_slice(&xs[o..o + 4]) - qx, Vec4::from_slice(&ys[o..o + 4]) - qy, Vec4::from_slice(&zs[o..o + 4]) - qz);
+            // The group's slices are cut once, so the loop's reads need no bounds checks.
+            let end = start + len.div_ceil(4) * 4;
+            let groups = xs[start..end].chunks_exact(4).zip(ys[start..end].chunks_exact(4)).zip(zs[start..end].chunks_exact(4));
+            for (c, ((x, y), z)) in groups.enumerate() {
+                let (dx, dy, dz) = (Vec4::from_slice(x) - qx, Vec4::from_slice(y) - qy, Vec4::from_slice(z) - qz);
                 let d = (dx * dx + dy * dy) + dz * dz;
-                d.write_to_slice(&mut d2[lanes]);
+                d.write_to_slice(&mut d2[4 * c..4 * c + 4]);
                 inside |= d.cmple(limit).bitmask() << (4 * c);
             }
             // The leaf's photons only (LEAF_GROUP < 32).
