@@ -75,7 +75,7 @@ impl Default for GatherBatch {
 /// thread made before.
 #[derive(Clone, Debug, Default)]
 pub struct GatherScratch {
-    pub knn: KnnResult,
+    knn: KnnResult,
     batch: GatherBatch,
 }
 
