@@ -151,6 +151,8 @@ pub struct RenderPhaseStats {
     pub seconds_kdtree: f64,
     pub rays_traced: u64,
     pub knn_queries: u64,
+    /// k-NN searches for ΔA alone, by T2 at vertices that skipped their density estimate (method.md §3.1).
+    pub knn_area_queries: u64,
     pub photons_emitted: u64,
     pub photons_stored: u64,
     pub photon_bytes: u64,
@@ -371,6 +373,7 @@ pub fn render_share(
             film.merge_tile(&buf)?;
             stats.rays_traced += ps.rays;
             stats.knn_queries += ps.knn_queries;
+            stats.knn_area_queries += ps.knn_area_queries;
             q1_range.merge(&ps.q1);
         }
         stats.mis_q1_range = q1_range.get();

@@ -118,6 +118,8 @@ pub struct RenderStatsJson {
     pub photon_budget: &'static str,
     pub photon_target: u64,
     pub knn_queries: u64,
+    /// k-NN searches for ΔA alone (T2 at vertices that skipped their density estimate, method.md §3.1).
+    pub knn_area_queries: u64,
     /// The smallest and largest q₁ (method.md §4) that reached the MIS function; null unless `mis`.
     pub mis_q1_range: Option<[f32; 2]>,
     pub photons_emitted: u64,
@@ -488,6 +490,7 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
         photon_budget,
         photon_target,
         knn_queries: phases.knn_queries,
+        knn_area_queries: phases.knn_area_queries,
         mis_q1_range: phases.mis_q1_range,
         photons_emitted: phases.photons_emitted,
         photons_stored: phases.photons_stored,

@@ -6,7 +6,7 @@
 //! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
 //! through `x S⁺ L` can be weighted by `w₂`.
 
-use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, Q1Range};
+use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, OriginArea, Q1Range};
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
 use crate::light::Light;
@@ -22,6 +22,8 @@ pub struct PathStats {
     pub rays: u64,
     /// k-NN queries (density estimates).
     pub knn_queries: u64,
+    /// k-NN searches T2 made for ΔA at vertices that skipped their density estimate (method.md §3.1).
+    pub knn_area_queries: u64,
     /// The q₁ that reached the MIS function, in T1 and T2 (`mis` only).
     pub q1: Q1Range,
 }
@@ -30,6 +32,7 @@ impl PathStats {
     pub fn add(&mut self, o: &PathStats) {
         self.rays += o.rays;
         self.knn_queries += o.knn_queries;
+        self.knn_area_queries += o.knn_area_queries;
         self.q1.merge(&o.q1);
     }
 }
@@ -68,14 +71,15 @@ impl<'a> PathTracer<'a> {
     /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length);
     /// `pdf_emit`: the density with which the photon pass would start a photon where this emission was
     /// found (0 for emitters without photons; evaluated only for `x S⁺ L`).
-    /// `q1_seen`: where T2's q₁ is recorded (the stats).
-    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, q1_seen: &mut Q1Range) -> f32 {
+    /// `stats`: where T2's q₁ and its searches for ΔA are recorded; `scratch`: the tile's, for those searches.
+    #[allow(clippy::too_many_arguments)]
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, stats: &mut PathStats, scratch: &mut GatherScratch) -> f32 {
         match prev {
             Vertex::Camera => 1.0,
             Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
             Vertex::Delta => match caustic {
                 None => 1.0,
-                Some(origin) => self.caustics.t2_weight(origin, pdf_emit(), delta_vertices, q1_seen),
+                Some(origin) => self.caustics.t2_weight(origin, pdf_emit(), delta_vertices, &mut stats.q1, &mut stats.knn_area_queries, scratch),
             },
         }
     }
@@ -117,7 +121,7 @@ impl<'a> PathTracer<'a> {
                         (Light::Env(env), Some(em)) => em.pdf_emit_env(index, env, dir),
                         _ => 0.0,
                     };
-                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices, &mut stats.q1);
+                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices, stats, scratch);
                     l += beta * w * le;
                 }
                 break;
@@ -134,7 +138,7 @@ impl<'a> PathTracer<'a> {
                         _ => 0.0,
                     };
                     let pdf_emit = || self.caustics.emission().map_or(0.0, |em| em.pdf_emit_area(light_index, si.p, si.ng, wo_world));
-                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices, &mut stats.q1) * le;
+                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices, stats, scratch) * le;
                 }
             }
             if depth >= max_depth {
@@ -167,15 +171,20 @@ impl<'a> PathTracer<'a> {
                 }
             }
 
-            // Caustics T1 at x (and ΔA(x), which T2 needs).
-            let mut delta_area = None;
+            // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs.
+            let mut area = None;
             let alpha = if first_non_delta { self.alpha } else { 1.0 };
             if non_delta && self.caustics.active() {
-                let g = self.caustics.gather(&si, wo_world, bsdf, alpha, scratch);
-                stats.knn_queries += 1;
-                stats.q1.merge(&g.q1);
-                l += beta * g.l1;
-                delta_area = Some(g.delta_area);
+                let p_gather = self.caustics.gather_probability(&si, wo_local, bsdf, beta, l);
+                if p_gather >= 1.0 || sampler.next_1d() < p_gather {
+                    let g = self.caustics.gather(&si, wo_world, bsdf, alpha, scratch);
+                    stats.knn_queries += 1;
+                    stats.q1.merge(&g.q1);
+                    l += beta * g.l1 / p_gather;
+                    area = Some(OriginArea::Known(g.delta_area));
+                } else {
+                    area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
+                }
             }
             if non_delta {
                 first_non_delta = false;
@@ -197,7 +206,7 @@ impl<'a> PathTracer<'a> {
             } else {
                 delta_vertices = 0;
                 prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
-                caustic = delta_area.map(|delta_area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), delta_area, alpha });
+                caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha });
             }
 
             // Russian roulette (survival ∝ throughput, capped at 0.95).

@@ -14,6 +14,10 @@
 //! leaves ([`crate::photon::SearchFrom::Leaves`]) instead of walking the tree from its root. Where photons
 //! are sparse (most of `cornell-caustics`: a query finds fewer than k within `r`, so the walk covers the
 //! whole search disk, ~20 nodes for ~3 leaves) that is a few box tests instead of a descent.
+//!
+//! Where lists are kept, each marked cell also keeps the summed power of the photons in its 3×3×3 block
+//! ([`OccupancyGrid::power_near`]): the bound on a density estimate from which the eye path decides whether
+//! to make it (method.md §3.1).
 
 use super::{KdTree, SearchFrom};
 use crate::math::Vec3;
@@ -24,7 +28,7 @@ const MAX_LEAVES_PER_CELL: usize = 24;
 
 /// Marked cells per photon at most for the lists to be built (a sparse map spread over many cells keeps
 /// none: every query walks the tree), and list entries per photon at most (later cells keep none). So the
-/// lists hold at most 2·8 + 6·4 = [`LIST_BYTES_PER_PHOTON`] bytes per photon, and their build (one bounded
+/// lists hold at most 2·12 + 6·4 = [`LIST_BYTES_PER_PHOTON`] bytes per photon, and their build (one bounded
 /// tree walk per marked cell) stays proportional to the photons.
 const MAX_MARKED_PER_PHOTON: usize = 2;
 const MAX_LIST_ENTRIES_PER_PHOTON: usize = 6;
@@ -55,11 +59,14 @@ impl<'a> Near<'a> {
     }
 }
 
-/// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree).
+/// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree); and
+/// `power`, the largest RGB channel of the summed power of the photons in the 3×3×3 cells around it (every
+/// photon within the radius of a point of the cell is among them: [`OccupancyGrid::power_near`]).
 #[derive(Clone, Copy, Debug)]
 struct CellList {
     start: u32,
     len: u32,
+    power: f32,
 }
 
 const NO_LIST: u32 = u32::MAX;
@@ -116,6 +123,7 @@ impl OccupancyGrid {
             }
         }
         grid.build_lists(tree, radius, cell);
+        grid.add_power(tree);
         Some(grid)
     }
 
@@ -156,13 +164,57 @@ impl OccupancyGrid {
                 let list = if room && tree.leaves_near_box(min, max, reach, MAX_LEAVES_PER_CELL, &mut ids) {
                     let start = self.leaf_ids.len() as u32;
                     self.leaf_ids.extend_from_slice(&ids);
-                    CellList { start, len: ids.len() as u32 }
+                    CellList { start, len: ids.len() as u32, power: 0.0 }
                 } else {
-                    CellList { start: 0, len: NO_LIST }
+                    CellList { start: 0, len: NO_LIST, power: 0.0 }
                 };
                 self.lists.push(list);
             }
         }
+    }
+
+    /// Adds each photon's power to the 27 cells its own cell's block marked (only where lists were built).
+    fn add_power(&mut self, tree: &KdTree) {
+        if self.rank.is_empty() {
+            return;
+        }
+        let mut sums = vec![Vec3::ZERO; self.lists.len()];
+        for (p, d) in tree.photons().iter().zip(tree.decoded()) {
+            let Some(c) = self.cell(p.position()) else { continue };
+            for dz in 0..3 {
+                for dy in 0..3 {
+                    for dx in 0..3 {
+                        if let Some(r) = self.index([c[0] + dx, c[1] + dy, c[2] + dz].map(|v| v.wrapping_sub(1))).and_then(|i| self.rank_of(i)) {
+                            sums[r] += d.power;
+                        }
+                    }
+                }
+            }
+        }
+        for (list, sum) in self.lists.iter_mut().zip(sums) {
+            list.power = sum.max_element();
+        }
+    }
+
+    /// The rank of marked cell `i` among the marked cells (its index in `lists`).
+    #[inline]
+    fn rank_of(&self, i: usize) -> Option<usize> {
+        let (w, b) = (i / 64, i % 64);
+        let word = self.bits[w];
+        (word & (1 << b) != 0 && !self.rank.is_empty()).then(|| self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize)
+    }
+
+    /// The largest RGB channel of the summed power of the photons that may lie within the radius of `p` (a
+    /// bound: those of the 3×3×3 cells around `p`'s cell): 0 where none does, `None` where the grid keeps no
+    /// sums (no lists were built) or `p` is not finite.
+    #[inline]
+    #[must_use]
+    pub fn power_near(&self, p: Vec3) -> Option<f32> {
+        if !p.is_finite() || self.rank.is_empty() {
+            return None;
+        }
+        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Some(0.0) };
+        Some(self.rank_of(i).map_or(0.0, |r| self.lists[r].power))
     }
 
     /// Where the search for the photons within the radius of `p` starts (module docs): nowhere (no photon
@@ -263,6 +315,50 @@ mod tests {
         assert!(OccupancyGrid::new(&tree, f32::INFINITY).is_none());
         assert!(OccupancyGrid::new(&tree, 0.0).is_none());
         assert!(OccupancyGrid::new(&KdTree::build(Vec::new()).unwrap(), 1.0).is_none());
+    }
+
+    /// `power_near` bounds the photon power within the radius (the largest RGB channel of the brute-force sum
+    /// of the photons within it, for a grid that keeps lists), is 0 where no photon lies in the 3×3×3 cells
+    /// around the point, and is no more than the whole map's power; without lists it is `None`.
+    #[test]
+    fn power_near_bounds_the_power_within_the_radius() {
+        let mut s = Sampler::for_key(13, 0, 0);
+        // A dense spot of red photons in a sparse layer of blue ones, on a plane.
+        let photons: Vec<Photon> = (0..4000)
+            .map(|i| {
+                let u = s.next_2d();
+                if i % 4 == 0 {
+                    Photon::new(Vec3::new(0.2 * u.x, 0.0, 0.2 * u.y), Vec3::Y, Vec3::new(2.0, 0.1, 0.0), 1.0)
+                } else {
+                    Photon::new(Vec3::new(4.0 * u.x - 2.0, 0.0, 4.0 * u.y - 2.0), Vec3::Y, Vec3::new(0.0, 0.0, 0.5), 1.0)
+                }
+            })
+            .collect();
+        let total: Vec3 = photons.iter().map(|p| p.decoded().power).sum();
+        let tree = KdTree::build(photons.clone()).unwrap();
+        let radius = 0.1;
+        let grid = OccupancyGrid::new(&tree, radius).unwrap();
+        let (mut tight, mut zero) = (0, 0);
+        for _ in 0..5000 {
+            let q = Vec3::new(6.0 * s.next_1d() - 3.0, 0.2 * s.next_1d() - 0.1, 6.0 * s.next_1d() - 3.0);
+            let within: Vec3 = photons.iter().filter(|p| p.position().distance_squared(q) <= radius * radius).map(|p| p.decoded().power).sum();
+            let bound = grid.power_near(q).expect("lists were built");
+            assert!(bound >= within.max_element() * (1.0 - 1e-5), "{q}: bound {bound} below the power within the radius {within}");
+            assert!(bound <= total.max_element() * (1.0 + 1e-5), "{q}: bound {bound} above the map's power");
+            if bound == 0.0 {
+                zero += 1;
+                assert_eq!(grid.near(q), Near::Empty, "{q}: no power but photons may be near");
+            } else if bound <= 12.0 * within.max_element() {
+                tight += 1;
+            }
+        }
+        // The bound is a local figure, not the map's power: queries outside the layer see 0, and most
+        // inside it see a sum over a few cells (a 3×3 block of cells is 9/π the search disk's area).
+        assert!(zero > 500 && tight > 1500, "{zero} queries with no power, {tight} with a bound within 12× the power in reach");
+        // Without lists (more than 2 marked cells per photon: a sparse cloud), no sums.
+        let sparse: Vec<Photon> = (0..200).map(|_| Photon::new(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 50.0, Vec3::Y, Vec3::ONE, 1.0)).collect();
+        let sparse_grid = OccupancyGrid::new(&KdTree::build(sparse).unwrap(), 0.5).unwrap();
+        assert_eq!(sparse_grid.power_near(Vec3::splat(25.0)), None);
     }
 
     /// A search from the cell's leaves ([`OccupancyGrid::near`]) finds the k-NN of the search from the root:

@@ -7,10 +7,10 @@
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
-//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 130 B: the record (32 B),
+//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 138 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
 //!   photons: at most 8 B) and leaves (48 B per 8 to 16 photons: at most 6 B), and the occupancy grid's
-//!   per-cell leaf lists (at most 40 B). A photon that meets a blend of delta and non-delta lobes can be
+//!   per-cell leaf lists and power sums (at most 48 B). A photon that meets a blend of delta and non-delta lobes can be
 //!   stored more than once, so this is an estimate, not a bound. The occupancy grid's bits (at most 132³
 //!   bits, 280 KiB) are not counted.
 //!
@@ -109,8 +109,8 @@ mod tests {
 
     #[test]
     fn photon_map_counts_photons_and_nodes() {
-        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 130_000);
-        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 130_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 138_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 138_000);
         // Absurd budgets saturate instead of wrapping to a small number.
         assert_eq!(photon_map_bytes(PhotonBudget::Emitted(u64::MAX)), u64::MAX);
     }

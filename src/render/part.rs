@@ -302,6 +302,7 @@ pub struct MergeStats {
     pub seconds_merge: f64,
     pub rays_traced: u64,
     pub knn_queries: u64,
+    pub knn_area_queries: u64,
     /// The parts' q₁ ranges combined (`mis` only).
     pub mis_q1_range: Option<[f32; 2]>,
     pub photons_emitted: u64,
@@ -337,6 +338,7 @@ pub fn merge_parts(mut parts: Vec<PartFile>, allow_missing: bool) -> Result<(Fil
         seconds_merge: 0.0,
         rays_traced: sum(|i| i.phases.rays_traced),
         knn_queries: sum(|i| i.phases.knn_queries),
+        knn_area_queries: sum(|i| i.phases.knn_area_queries),
         mis_q1_range: parts.iter().filter_map(|p| p.info.phases.mis_q1_range).reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])]),
         photons_emitted: sum(|i| i.phases.photons_emitted),
         photons_stored: sum(|i| i.phases.photons_stored),
