@@ -300,11 +300,8 @@ impl<'a> CausticEstimator<'a> {
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut GatherScratch) -> Gather {
         let GatherScratch { knn, batch } = scratch;
-        let Some(map) = self.map else {
-            return Gather { l1: Vec3::ZERO, delta_area: self.min_area(si.p), photons: 0, q1: Q1Range::default() };
-        };
-        let Some((r2, delta_area)) = self.search(map, si.p, si.ng, wo_world.dot(si.ng), knn) else {
-            let (_, delta_area) = self.estimate_area(self.max_radius * self.max_radius, si.p);
+        let (delta_area, searched) = self.search(si.p, si.ng, wo_world.dot(si.ng), knn);
+        let (Some(map), Some(r2)) = (self.map, searched) else {
             return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
         };
         // Directions, p_emit and power decoded once per photon at build time (KdTree::decoded): the search
@@ -359,27 +356,28 @@ impl<'a> CausticEstimator<'a> {
     }
 
     /// T1's k-NN search at `p` (method.md §3): the photons arriving on the side of `n_g` that `wo_side = ωₒ·n_g`
-    /// gives, left in `knn`; returns the estimate's `(r², ΔA)`, or `None` when no photon lies within
-    /// `max_radius` (the occupancy grid's answer for one memory read: `knn` is then not written, and ΔA is
-    /// that of `r = max_radius`).
-    fn search(&self, map: &PhotonMap, p: Vec3, ng: Vec3, wo_side: f32, knn: &mut KnnResult) -> Option<(f32, f32)> {
+    /// gives, left in `knn`; returns the estimate's ΔA and its `r²`. `r²` is `None` when `knn` was not written:
+    /// without a photon map (ΔA is then the floor at `p`), and where no photon lies within `max_radius` (the
+    /// occupancy grid's answer for one memory read; ΔA is then that of `r = max_radius`).
+    fn search(&self, p: Vec3, ng: Vec3, wo_side: f32, knn: &mut KnnResult) -> (f32, Option<f32>) {
+        let Some(map) = self.map else { return (self.min_area(p), None) };
         let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near(p));
         if near == Near::Empty {
-            return None;
+            return (self.estimate_area(self.max_radius * self.max_radius, p).1, None);
         }
         let decoded = map.tree().decoded();
         // Warm-started from the recent queries of this tile with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
         map.tree().knn_warm_from(p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, knn);
-        Some(self.estimate_area(knn.r2(), p))
+        let (r2, delta_area) = self.estimate_area(knn.r2(), p);
+        (delta_area, Some(r2))
     }
 
     /// `ΔA(x)` of a vertex whose density estimate was skipped (method.md §3.1): the same search as
     /// [`CausticEstimator::gather`]'s, so the same area the estimate would have used.
     pub fn area_at(&self, p: Vec3, ng: Vec3, wo_side: f32, scratch: &mut GatherScratch) -> f32 {
-        let searched = self.map.and_then(|map| self.search(map, p, ng, wo_side, &mut scratch.knn));
-        searched.map_or_else(|| self.estimate_area(self.max_radius * self.max_radius, p).1, |(_, delta_area)| delta_area)
+        self.search(p, ng, wo_side, &mut scratch.knn).0
     }
 
     /// The squared radius `s·r²_kNN` of the estimate at `x` and its area ΔA (clamped, method.md §3, §6).

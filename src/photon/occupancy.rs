@@ -111,15 +111,8 @@ impl OccupancyGrid {
         let words = (dims[0] * dims[1] * dims[2]).div_ceil(64);
         let mut grid = OccupancyGrid { origin, inv_cell: 1.0 / cell, dims, bits: vec![0; words], rank: Vec::new(), lists: Vec::new(), leaf_ids: Vec::new() };
         for p in tree.photons() {
-            let Some(c) = grid.cell(p.position()) else { continue };
-            for dz in 0..3 {
-                for dy in 0..3 {
-                    for dx in 0..3 {
-                        if let Some(i) = grid.index([c[0] + dx, c[1] + dy, c[2] + dz].map(|v| v.wrapping_sub(1))) {
-                            grid.bits[i / 64] |= 1 << (i % 64);
-                        }
-                    }
-                }
+            for i in grid.block_around(p.position()) {
+                grid.bits[i / 64] |= 1 << (i % 64);
             }
         }
         grid.build_lists(tree, radius, cell);
@@ -180,20 +173,23 @@ impl OccupancyGrid {
         }
         let mut sums = vec![Vec3::ZERO; self.lists.len()];
         for (p, d) in tree.photons().iter().zip(tree.decoded()) {
-            let Some(c) = self.cell(p.position()) else { continue };
-            for dz in 0..3 {
-                for dy in 0..3 {
-                    for dx in 0..3 {
-                        if let Some(r) = self.index([c[0] + dx, c[1] + dy, c[2] + dz].map(|v| v.wrapping_sub(1))).and_then(|i| self.rank_of(i)) {
-                            sums[r] += d.power;
-                        }
-                    }
-                }
+            for r in self.block_around(p.position()).filter_map(|i| self.rank_of(i)) {
+                sums[r] += d.power;
             }
         }
         for (list, sum) in self.lists.iter_mut().zip(sums) {
             list.power = sum.max_element();
         }
+    }
+
+    /// The indices of the 3×3×3 cells around `p`'s cell that lie in the grid (none for a point below its
+    /// origin): the cells from which a photon at `p` can be found.
+    fn block_around(&self, p: Vec3) -> impl Iterator<Item = usize> + use<> {
+        let (c, dims) = (self.cell(p), self.dims);
+        (0..27usize).filter_map(move |n| {
+            let c = c?;
+            index_in(dims, [c[0] + n % 3, c[1] + n / 3 % 3, c[2] + n / 9].map(|v| v.wrapping_sub(1)))
+        })
     }
 
     /// The rank of marked cell `i` among the marked cells (its index in `lists`).
@@ -227,16 +223,12 @@ impl OccupancyGrid {
         }
         // Outside the grid: more than one cell (≥ the radius) from every photon.
         let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Near::Empty };
-        let (w, b) = (i / 64, i % 64);
-        let word = self.bits[w];
-        if word & (1 << b) == 0 {
+        if self.bits[i / 64] & (1 << (i % 64)) == 0 {
             return Near::Empty;
         }
-        if self.rank.is_empty() {
-            // No lists (too many marked cells).
-            return Near::Tree;
-        }
-        let list = self.lists[self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize];
+        // No rank: no lists (too many marked cells).
+        let Some(r) = self.rank_of(i) else { return Near::Tree };
+        let list = self.lists[r];
         if list.len == NO_LIST {
             Near::Tree
         } else {
@@ -265,12 +257,14 @@ impl OccupancyGrid {
 
     #[inline]
     fn index(&self, c: [usize; 3]) -> Option<usize> {
-        if c[0] < self.dims[0] && c[1] < self.dims[1] && c[2] < self.dims[2] {
-            Some((c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0])
-        } else {
-            None
-        }
+        index_in(self.dims, c)
     }
+}
+
+/// The index of cell `c` in a grid of `dims` cells (x fastest), `None` outside it.
+#[inline]
+fn index_in(dims: [usize; 3], c: [usize; 3]) -> Option<usize> {
+    (c[0] < dims[0] && c[1] < dims[1] && c[2] < dims[2]).then(|| (c[2] * dims[1] + c[1]) * dims[0] + c[0])
 }
 
 #[cfg(test)]
