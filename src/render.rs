@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
 use crate::integrator::{CausticEstimator, GatherScratch, PathStats, PathTracer, Q1Range};
+use crate::math::Vec3;
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
 use crate::scene::settings::defaults;
@@ -350,11 +351,19 @@ pub fn render_share(
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let pixel = u64::from(y) * width + u64::from(x);
+                        // The pixel's mean so far in this pass (finite samples), which the gather's roulette
+                        // reads (method.md §3.1): samples of a pixel run in order on one thread.
+                        let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
                         for s in spp_done..spp_done + this_pass {
                             let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
                             let j = sampler.next_2d();
                             let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
-                            let l = tracer.li(ray, &mut sampler, &mut ps, &mut scratch);
+                            let pixel_mean = if pixel_n > 0 { pixel_sum / pixel_n as f32 } else { Vec3::ZERO };
+                            let l = tracer.li(ray, &mut sampler, pixel_mean, &mut ps, &mut scratch);
+                            if l.is_finite() {
+                                pixel_sum += l;
+                                pixel_n += 1;
+                            }
                             buf.add(x, y, l);
                         }
                     }

@@ -29,7 +29,7 @@
 
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
-use crate::photon::kdtree::KnnResult;
+use crate::photon::KnnResult;
 use crate::photon::{photon_chain_reaches, Near, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
@@ -80,7 +80,25 @@ impl Default for GatherBatch {
 pub struct GatherScratch {
     knn: KnnResult,
     batch: GatherBatch,
+    /// The last leaf bound of [`CausticEstimator::estimate_bound`].
+    leaf_bound: Option<LeafBound>,
 }
+
+/// The photons of the kd-tree's leaves within `radius` of `p` ([`crate::photon::KdTree::bound_within`]):
+/// their power (largest channel) and a box of their directions. A bound for any ball inside that one, so
+/// the eye samples of a pixel, whose first hits lie a fraction of the k-NN radius apart, share one.
+#[derive(Clone, Copy, Debug)]
+struct LeafBound {
+    p: Vec3,
+    radius: f32,
+    power: f32,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+/// The radius of a new [`LeafBound`] over the one needed: a wider ball serves more queries and holds more
+/// power (at most this squared, 1.56×, on a uniform density).
+const LEAF_BOUND_REACH: f32 = 1.1;
 
 /// The smallest and largest q₁ (method.md §4) that reached the MIS function in a render: finite, positive
 /// values only (a delta light's `q₁ = ∞` and a grazing photon's `q₁ = 0` are its rules' limits, not
@@ -136,6 +154,7 @@ pub const GATHER_ROULETTE_KAPPA: f32 = 1.0;
 /// The least probability with which T1 runs at a vertex whose cell holds photons (the largest factor
 /// `1/P` by which a run scales its estimate).
 pub const GATHER_MIN_PROBABILITY: f32 = 0.1;
+
 
 /// Where T2 finds the k-NN area `ΔA(x)` (method.md §3.1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -268,30 +287,78 @@ impl<'a> CausticEstimator<'a> {
         self.map.and_then(PhotonMap::emission)
     }
 
-    /// The probability with which T1 runs at `x` (method.md §3.1): with `β` the path's throughput, `f` the
-    /// BSDF at ωₒ toward the mirror direction (the peak of its non-delta lobes) and `Φ` the photon power that
-    /// may lie within `max_radius` of `x` ([`OccupancyGrid::power_near`]), the estimate is at most about
-    /// `c = max(β·f)·Φ/(π·max_radius²)`; T1 runs with `P = min(1, c/(κ·L))` (at least
-    /// [`GATHER_MIN_PROBABILITY`]), `L` the largest channel of `collected`, the radiance the eye sample has
-    /// gathered so far. 1 where `L` is 0, where the grid keeps no power sums, and where no photon is near
-    /// (the estimate then costs one read).
+    /// The probability with which T1 runs at `x` (method.md §3.1): `P = min(1, max(β)·c/(κ·L))`, at least
+    /// [`GATHER_MIN_PROBABILITY`], with `c` the bound of [`CausticEstimator::estimate_bound`] and `L` the
+    /// largest channel of `collected` (the larger of the radiance the eye sample has gathered so far and its
+    /// pixel's mean). 1 where `L` is 0 and where no bound is known. `scratch` is the one the estimate would
+    /// use (its recent queries bound the radius).
     #[must_use]
-    pub fn gather_probability(&self, si: &SurfaceInteraction, wo_local: Vec3, bsdf: &Bsdf, beta: Vec3, collected: Vec3) -> f32 {
-        let budget = GATHER_ROULETTE_KAPPA * collected.max_element();
-        if !(budget > 0.0) {
+    pub fn gather_probability(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch) -> f32 {
+        let budget = GATHER_ROULETTE_KAPPA * collected.max_element() / beta.max_element();
+        if !(budget > 0.0) || budget == f32::INFINITY {
             return 1.0;
         }
-        let Some(power) = self.occupancy.as_ref().and_then(|grid| grid.power_near(si.p)) else { return 1.0 };
-        if power == 0.0 {
-            return 1.0;
+        match self.estimate_bound(si, wo_world, bsdf, scratch) {
+            Some(c) if c < budget => (c / budget).max(GATHER_MIN_PROBABILITY),
+            _ => 1.0,
         }
-        let (f, _) = bsdf.f_pdf(wo_local, Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), TransportMode::Radiance);
-        let c = (beta * f).max_element() * power / (std::f32::consts::PI * self.max_radius * self.max_radius);
-        if c >= budget {
-            1.0
-        } else {
-            (c / budget).max(GATHER_MIN_PROBABILITY)
+    }
+
+    /// A bound `c` on the largest channel of the estimate `L₁(x)` (method.md §3.1): `f·Φ/ΔA_min`, with Φ the
+    /// power of the photons that may lie within the estimate's radius, f the BSDF toward the direction of
+    /// their box nearest ωₒ's mirror direction, and ΔA_min the least area the estimate can have. The tile's
+    /// recent queries bound the k-NN radius, `r_lo ≤ r_k ≤ r_hi` ([`KnnResult::radius_bounds`]). In order:
+    /// 1. where the occupancy grid holds no photon around `x`: 0;
+    /// 2. where it holds fewer than k, the search finds fewer than k and ΔA is that of `max_radius`: the
+    ///    grid's photons ([`OccupancyGrid::photons_near`]);
+    /// 3. where `0 < r_lo` and `r_hi < max_radius`: the kd-tree's leaves within `r_hi`
+    ///    ([`crate::photon::KdTree::bound_within`], reused while the ball stays inside the last one
+    ///    computed: [`LeafBound`]), with ΔA that of `r_lo`;
+    /// 4. where `0 < r_lo`: the grid's photons, with ΔA that of `r_lo`.
+    /// `None` where none applies (no recent query near `x`).
+    #[must_use]
+    pub fn estimate_bound(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, scratch: &mut GatherScratch) -> Option<f32> {
+        let map = self.map?;
+        let wo_local = si.frame.to_local(wo_world);
+        let mirror = si.frame.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z));
+        // f toward the point of a box of directions nearest the mirror direction, put on ωₒ's side (the
+        // non-delta lobes reflect), times the power, over the area.
+        let bound = |power: f32, lo: Vec3, hi: Vec3, area: f32| {
+            if power == 0.0 {
+                return 0.0;
+            }
+            let wi = si.frame.to_local(mirror.clamp(lo, hi));
+            let wi = Vec3::new(wi.x, wi.y, wi.z.abs().max(1e-3).copysign(wo_local.z)).normalize();
+            bsdf.f_pdf(wo_local, wi, TransportMode::Radiance).0.max_element() * power / area
+        };
+        let near = self.occupancy.as_ref().and_then(|grid| grid.photons_near(si.p));
+        if let Some(near) = near {
+            if near.power == 0.0 {
+                return Some(0.0);
+            }
+            if near.fewer_than(self.knn) {
+                return Some(bound(near.power, near.dirs.min(), near.dirs.max(), self.estimate_area(self.max_radius * self.max_radius, si.p).1));
+            }
         }
+        // The margins cover the rounding of the recent radii and distances (as the warm start's does).
+        let (r_lo, r_hi) = scratch.knn.radius_bounds(si.p, self.knn, acceptance_key(si.ng, wo_world.dot(si.ng) > 0.0));
+        if !(r_lo > 0.0) {
+            return None;
+        }
+        let area = self.estimate_area(r_lo * r_lo * (1.0 - 1.0 / 65536.0), si.p).1;
+        if r_hi < self.max_radius {
+            let r_hi = r_hi * (1.0 + 1.0 / 65536.0);
+            let leaves = match scratch.leaf_bound {
+                Some(b) if b.p.distance(si.p) + r_hi <= b.radius => b,
+                _ => {
+                    let radius = (LEAF_BOUND_REACH * r_hi).min(self.max_radius);
+                    let near = map.tree().bound_within(si.p, radius);
+                    *scratch.leaf_bound.insert(LeafBound { p: si.p, radius, power: near.power, lo: near.lo, hi: near.hi })
+                }
+            };
+            return Some(bound(leaves.power, leaves.lo, leaves.hi, area));
+        }
+        near.map(|near| bound(near.power, near.dirs.min(), near.dirs.max(), area))
     }
 
     /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).
@@ -299,7 +366,7 @@ impl<'a> CausticEstimator<'a> {
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut GatherScratch) -> Gather {
-        let GatherScratch { knn, batch } = scratch;
+        let GatherScratch { knn, batch, .. } = scratch;
         let (delta_area, searched) = self.search(si.p, si.ng, wo_world.dot(si.ng), knn);
         let (Some(map), Some(r2)) = (self.map, searched) else {
             return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
@@ -558,31 +625,92 @@ mod tests {
         assert!(full > 500 && partial > 50 && empty > 500, "cases: {full} full, {partial} partial, {empty} empty");
     }
 
-    /// The roulette's probability (method.md §3.1): 1 before the sample has collected radiance and where no
-    /// photon is near; `c/(κ·L)` between [`GATHER_MIN_PROBABILITY`] and 1, with
-    /// `c = max(β·f)·Φ/(π·max_radius²)` and Φ the grid's power near the point.
+    /// The roulette's probability (method.md §3.1) where the grid holds fewer than k photons around the point
+    /// (400 photons on [−1, 1]², about 37 in a 3×3 block of 0.2-wide cells; k = 60): 1 before the sample has
+    /// collected radiance; `c/(κ·L)` between [`GATHER_MIN_PROBABILITY`] and 1,
+    /// with `c = max(β)·f·Φ/(π·max_radius²)`, Φ the grid's power near the point and f toward the photons.
     #[test]
     fn the_gather_probability_follows_its_rule() {
-        let map = plane_map(4000);
+        let map = plane_map(400);
         let max_radius = 0.2;
-        let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, max_radius, 1.0);
+        let est = CausticEstimator::new(Estimator::Pm, Some(&map), 60, max_radius, 1.0);
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
         let si = plane_point(Vec3::new(0.1, -0.2, 0.0));
-        let power = est.occupancy.as_ref().unwrap().power_near(si.p).unwrap();
-        assert!(power > 0.0);
+        let near = est.occupancy.as_ref().unwrap().photons_near(si.p).unwrap();
+        assert!(near.power > 0.0 && near.fewer_than(60), "{near:?}");
         let beta = Vec3::new(0.2, 0.8, 0.4);
         // c = 0.8·(0.5/π)·Φ/(π r²).
-        let c = 0.8 * (0.5 / std::f32::consts::PI) * power / (std::f32::consts::PI * max_radius * max_radius);
-        let p = |collected: Vec3| est.gather_probability(&si, Vec3::Z, &bsdf, beta, collected);
+        let c = 0.8 * (0.5 / std::f32::consts::PI) * near.power / (std::f32::consts::PI * max_radius * max_radius);
+        let mut scratch = GatherScratch::default();
+        let mut p = |collected: Vec3| est.gather_probability(&si, Vec3::Z, &bsdf, beta, collected, &mut scratch);
         assert_eq!(p(Vec3::ZERO), 1.0);
         assert_eq!(p(Vec3::new(0.0, c * 0.5 / GATHER_ROULETTE_KAPPA, 0.0)), 1.0);
         let half = p(Vec3::new(0.0, 0.0, 2.0 * c / GATHER_ROULETTE_KAPPA));
         assert!((half - 0.5).abs() < 1e-4, "P = {half}, expected 1/2");
         assert_eq!(p(Vec3::splat(1e6 * c)), GATHER_MIN_PROBABILITY);
-        // No photon near: the estimate costs one read, so it runs.
+        // No photon near: the estimate is 0, P the least.
         let far = plane_point(Vec3::new(5.0, 5.0, 0.0));
-        assert_eq!(est.gather_probability(&far, Vec3::Z, &bsdf, beta, Vec3::ONE), 1.0);
+        assert_eq!(est.estimate_bound(&far, Vec3::Z, &bsdf, &mut scratch), Some(0.0));
+        assert_eq!(est.gather_probability(&far, Vec3::Z, &bsdf, beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
         // A BSDF that reflects nothing toward the photons: the estimate is 0, P is the least.
-        assert_eq!(est.gather_probability(&si, Vec3::Z, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, beta, Vec3::ONE), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.gather_probability(&si, Vec3::Z, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
+        // A sharp GGX lobe: the bound takes f toward the photons' directions (all straight down, +z), not at
+        // its peak. Seen along the normal the peak is where the photons arrive from: P = 1. Seen from 60°
+        // off the normal, f toward +z is the lobe's tail, far below its peak, and so is P.
+        let glossy = Bsdf::RoughConductor {
+            distribution: crate::bsdf::Microfacet { kind: crate::bsdf::MicrofacetType::Ggx, alpha: 0.01, sample_visible: true },
+            specular_reflectance: Vec3::ONE,
+            eta_k: None,
+        };
+        let oblique = Vec3::new(3f32.sqrt() / 2.0, 0.0, 0.5);
+        let (tail, _) = glossy.f_pdf(oblique, Vec3::Z, TransportMode::Radiance);
+        let (peak, _) = glossy.f_pdf(oblique, Vec3::new(-oblique.x, 0.0, oblique.z), TransportMode::Radiance);
+        assert!(tail.x < 1e-4 * peak.x, "tail {tail}, peak {peak}");
+        let c_tail = 0.8 * tail.x * near.power / (std::f32::consts::PI * max_radius * max_radius);
+        let budget = 2.0 * c_tail / GATHER_ROULETTE_KAPPA;
+        let along = est.gather_probability(&si, Vec3::Z, &glossy, beta, Vec3::splat(budget), &mut scratch);
+        let from_60 = est.gather_probability(&si, oblique, &glossy, beta, Vec3::splat(budget), &mut scratch);
+        assert_eq!(along, 1.0);
+        assert!((from_60 - 0.5).abs() < 0.05, "P = {from_60}, expected about 1/2");
+    }
+
+    /// Where k photons lie well within `max_radius` the grid bounds nothing (a dense caustic: its power over
+    /// the area of `max_radius` is far below the estimate). Without a recent query near the point there is
+    /// no bound (P = 1); after one, the bound from the kd-tree's leaves within the recent radius holds: it is
+    /// never below the estimate made there (a diffuse receiver, photons from all over the hemisphere), and is
+    /// within a small factor of it.
+    #[test]
+    fn the_bound_holds_where_k_photons_are_near() {
+        let m = 20_000u64;
+        let mut s = Sampler::for_key(23, 0, 0);
+        let photons: Vec<Photon> = (0..m)
+            .map(|_| {
+                let u = s.next_2d();
+                let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
+                Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), w, Vec3::splat(1.0 / m as f32), 1.0)
+            })
+            .collect();
+        let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, None);
+        let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.5, 1.0);
+        let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
+        let mut scratch = GatherScratch::default();
+        let p0 = plane_point(Vec3::new(0.3, 0.1, 0.0));
+        assert!(!est.occupancy.as_ref().unwrap().photons_near(p0.p).unwrap().fewer_than(20));
+        assert_eq!(est.estimate_bound(&p0, Vec3::Z, &bsdf, &mut scratch), None);
+        assert_eq!(est.gather_probability(&p0, Vec3::Z, &bsdf, Vec3::ONE, Vec3::splat(1e6), &mut scratch), 1.0);
+        let first = est.gather(&p0, Vec3::Z, &bsdf, 1.0, &mut scratch);
+        let r0 = scratch.knn.r2().sqrt();
+        let (mut worst, mut at) = (0.0f32, p0.p);
+        for i in 0..400 {
+            // A walk in steps of up to a tenth of the k-NN radius, as a pixel's samples hit, kept in [−½, ½]².
+            let u = s.next_2d();
+            at = (at + 0.1 * r0 * Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0)).clamp(Vec3::splat(-0.5), Vec3::splat(0.5));
+            let x = plane_point(at);
+            let c = est.estimate_bound(&x, Vec3::Z, &bsdf, &mut scratch).expect("a recent query is near");
+            let g = est.gather(&x, Vec3::Z, &bsdf, 1.0, &mut scratch);
+            assert!(c >= g.l1.max_element() * (1.0 - 1e-5), "query {i} at {}: bound {c} below the estimate {}", x.p, g.l1);
+            worst = worst.max(c / g.l1.max_element());
+        }
+        assert!(first.photons == 20 && worst < 8.0, "the bound is {worst}× the estimate at worst");
     }
 }

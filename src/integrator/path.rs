@@ -84,8 +84,9 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// Radiance along `ray` (a camera ray), estimated with one path.
-    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
+    /// Radiance along `ray` (a camera ray), estimated with one path. `pixel_mean`: the mean of the pixel's
+    /// earlier samples (0 for its first), a scale the gather's roulette compares its bound with.
+    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
         let scene = self.scene;
         let lights = &scene.lights;
         let max_depth = self.max_depth();
@@ -175,7 +176,7 @@ impl<'a> PathTracer<'a> {
             let mut area = None;
             let alpha = if first_non_delta { self.alpha } else { 1.0 };
             if non_delta && self.caustics.active() {
-                let p_gather = self.caustics.gather_probability(&si, wo_local, bsdf, beta, l);
+                let p_gather = self.caustics.gather_probability(&si, wo_world, bsdf, beta, l.max(pixel_mean), scratch);
                 if p_gather >= 1.0 || sampler.next_1d() < p_gather {
                     let g = self.caustics.gather(&si, wo_world, bsdf, alpha, scratch);
                     stats.knn_queries += 1;

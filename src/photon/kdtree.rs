@@ -26,6 +26,7 @@
 
 use rayon::prelude::*;
 
+use super::dirbox::DirBox;
 use super::record::{DecodedPhoton, Photon};
 use crate::math::{Aabb, Vec3, Vec3A, Vec4};
 
@@ -139,6 +140,24 @@ struct Leaf {
     hi: u32,
 }
 
+/// A leaf's photons for the gather's roulette: the largest RGB channel of their summed power and the box of
+/// their arrival directions (12 bytes per 8 to 16 photons).
+#[derive(Clone, Copy, Debug)]
+struct LeafSums {
+    power: f32,
+    dirs: DirBox,
+}
+
+/// What the leaves within a radius hold ([`KdTree::bound_within`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeavesNear {
+    /// The largest RGB channel of those photons' summed power.
+    pub power: f32,
+    /// A box holding their arrival directions (`lo > hi` for none).
+    pub lo: Vec3,
+    pub hi: Vec3,
+}
+
 /// The leaves of the subtree at `node` (height `h`, photons `[lo, hi)`, box `bounds`), left to right.
 fn collect_leaves(nodes: &[Node], node: usize, h: u32, lo: usize, hi: usize, bounds: NodeBox, out: &mut Vec<Leaf>) {
     if h == 0 {
@@ -179,6 +198,8 @@ pub struct KdTree {
     nodes: Vec<Node>,
     /// The `2^depth` leaves, left to right: a search from a list of leaves reads their boxes and ranges here.
     leaves: Vec<Leaf>,
+    /// Per leaf (same order), what its photons hold for the gather's roulette ([`KdTree::bound_within`]).
+    leaf_sums: Vec<LeafSums>,
     depth: u32,
     /// Tight bounds of all photons (the root's box).
     root: Bounds,
@@ -224,7 +245,7 @@ pub struct KnnResult {
     /// A 4-ary max-heap on `dist2` while searching; arbitrary order after [`KnnResult::sort_by_distance`].
     heap: Vec<Neighbor>,
     r2: f32,
-    /// The last [`RECENT`] queries of [`KdTree::knn_warm`] that found k photons (a ring).
+    /// The last [`RECENT`] queries of [`KdTree::knn_warm`] (a ring).
     recent: [Recent; RECENT],
     next_recent: usize,
 }
@@ -233,7 +254,9 @@ pub struct KnnResult {
 /// later vertices come between two samples' first hits: a few entries keep the previous sample's.
 const RECENT: usize = 4;
 
-/// A query that found `k` photons within radius `r` of `p` under the acceptance test named `key`.
+/// A query at `p` under the acceptance test named `key` whose k-th photon lies at `r`, or that found fewer
+/// than `k` within `r` = its `max_radius` (then `r + |p − p₀|` is no tighter than `max_radius` and the warm
+/// start never uses it, while `r − |p − p₀|` still bounds the k-NN radius from below).
 #[derive(Clone, Copy, Debug)]
 struct Recent {
     p: Vec3,
@@ -264,6 +287,18 @@ impl KnnResult {
     /// Squared search radius r² (method.md §3): the squared distance to the k-th accepted photon, or
     /// `max_radius²` if fewer than k were found (also for an empty map or a non-finite query point), and 0
     /// for k = 0. May be 0 when photons coincide with the query: the caller clamps ΔA = πr².
+    /// Bounds `(lo, hi)` on the distance from `p` to its k-th nearest photon under the acceptance test named
+    /// `key`, from the remembered queries of [`KdTree::knn_warm`] with the same `k` and `key` (the triangle
+    /// inequality: a query at `p₀` found its k-th at `r₀`, so `r₀ − |p − p₀| ≤ r_k(p) ≤ r₀ + |p − p₀|`);
+    /// `(−∞, ∞)` without one. Up to f32 rounding of the distances (a relative 10⁻⁷).
+    #[must_use]
+    pub fn radius_bounds(&self, p: Vec3, k: usize, key: u64) -> (f32, f32) {
+        self.recent.iter().filter(|r| r.k == k && r.key == key).fold((f32::NEG_INFINITY, f32::INFINITY), |(lo, hi), r| {
+            let d = r.p.distance(p);
+            (lo.max(r.r - d), hi.min(r.r + d))
+        })
+    }
+
     #[must_use]
     pub fn r2(&self) -> f32 {
         self.r2
@@ -375,15 +410,23 @@ impl KdTree {
         let root = bounds_of(&photons);
         build_recursive(&mut photons, root, &mut nodes, depth);
         let positions = Positions::new(&photons);
-        let decoded = photons.iter().map(Photon::decoded).collect();
+        let decoded: Vec<DecodedPhoton> = photons.iter().map(Photon::decoded).collect();
         let mut leaves = Vec::with_capacity(1 << depth);
         collect_leaves(&nodes, 0, depth, 0, n, NodeBox::new(root), &mut leaves);
+        let leaf_sums = leaves
+            .iter()
+            .map(|l| {
+                let of_leaf: &[DecodedPhoton] = &decoded[l.lo as usize..l.hi as usize];
+                LeafSums { power: of_leaf.iter().map(|d| d.power).sum::<Vec3>().max_element(), dirs: DirBox::of(of_leaf.iter().map(|d| d.wi)) }
+            })
+            .collect();
         Ok(Self {
             photons,
             positions,
             decoded,
             nodes,
             leaves,
+            leaf_sums,
             depth,
             root,
             dropped_non_finite,
@@ -441,6 +484,45 @@ impl KdTree {
             + self.decoded.capacity() * std::mem::size_of::<DecodedPhoton>()
             + self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
+            + self.leaf_sums.capacity() * std::mem::size_of::<LeafSums>()
+    }
+
+    /// What the photons within `radius` of `p` may hold, from the leaves whose boxes come within `radius`
+    /// (a superset of those photons): the largest RGB channel of their summed power, and a box holding
+    /// their arrival directions (`lo > hi` when no leaf is in reach). The gather's roulette
+    /// bounds an estimate with it (method.md §3.1).
+    #[must_use]
+    pub fn bound_within(&self, p: Vec3, radius: f32) -> LeavesNear {
+        let (q, r2) = (Vec3A::from(p), radius * radius);
+        let mut near = LeavesNear { power: 0.0, lo: Vec3::INFINITY, hi: Vec3::NEG_INFINITY };
+        if self.photons.is_empty() || !(NodeBox::new(self.root).dist2(q) <= r2) {
+            return near;
+        }
+        // Depth-first over (node, height, first leaf id); a stack of one entry per level is enough, as a
+        // node's right child waits while its left subtree is walked.
+        let mut stack = [(0usize, 0u32, 0u32); 33];
+        stack[0] = (0, self.depth, 0);
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (node, h, first) = stack[top];
+            if h == 0 {
+                let sums = &self.leaf_sums[first as usize];
+                near.power += sums.power;
+                (near.lo, near.hi) = (near.lo.min(sums.dirs.min()), near.hi.max(sums.dirs.max()));
+                continue;
+            }
+            let [bl, br] = &self.nodes[node].children;
+            if br.dist2(q) <= r2 {
+                stack[top] = (node + (1usize << (h - 1)), h - 1, first + (1u32 << (h - 1)));
+                top += 1;
+            }
+            if bl.dist2(q) <= r2 {
+                stack[top] = (node + 1, h - 1, first);
+                top += 1;
+            }
+        }
+        near
     }
 
     /// The `k` nearest photons to `p` within `max_radius` (inclusive) among those for which `accept` is
@@ -517,12 +599,7 @@ impl KdTree {
     /// the leaves are scanned in the list's order, each skipped when its box lies beyond the current limit.
     #[allow(clippy::too_many_arguments)]
     pub fn knn_warm_from<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, from: SearchFrom<'_>, accept: F, out: &mut KnnResult) {
-        let bound = out
-            .recent
-            .iter()
-            .filter(|r| r.k == k && r.key == key)
-            .map(|r| r.r + r.p.distance(p))
-            .fold(f32::INFINITY, f32::min);
+        let bound = out.radius_bounds(p, k, key).1;
         // Rounding of r and of the distance could put one of the k photons just outside: a relative margin
         // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
         let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
@@ -531,7 +608,7 @@ impl KdTree {
         if warm.is_some() && out.heap.len() < k {
             self.knn_bounded(p, k, max_radius, None, from, accept, out);
         }
-        if k > 0 && out.heap.len() == k && p.is_finite() {
+        if k > 0 && p.is_finite() && max_radius.is_finite() {
             out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
             out.next_recent = (out.next_recent + 1) % RECENT;
         }

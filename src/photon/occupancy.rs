@@ -15,10 +15,11 @@
 //! are sparse (most of `cornell-caustics`: a query finds fewer than k within `r`, so the walk covers the
 //! whole search disk, ~20 nodes for ~3 leaves) that is a few box tests instead of a descent.
 //!
-//! Where lists are kept, each marked cell also keeps the summed power of the photons in its 3×3×3 block
-//! ([`OccupancyGrid::power_near`]): the bound on a density estimate from which the eye path decides whether
-//! to make it (method.md §3.1).
+//! Where lists are kept, each marked cell also keeps the summed power of the photons in its 3×3×3 block and
+//! the box their arrival directions lie in ([`OccupancyGrid::photons_near`]): the bound on a density
+//! estimate from which the eye path decides whether to make it (method.md §3.1).
 
+use super::dirbox::DirBox;
 use super::{KdTree, SearchFrom};
 use crate::math::Vec3;
 
@@ -28,7 +29,7 @@ const MAX_LEAVES_PER_CELL: usize = 24;
 
 /// Marked cells per photon at most for the lists to be built (a sparse map spread over many cells keeps
 /// none: every query walks the tree), and list entries per photon at most (later cells keep none). So the
-/// lists hold at most 2·12 + 6·4 = [`LIST_BYTES_PER_PHOTON`] bytes per photon, and their build (one bounded
+/// lists hold at most 2·16 + 6·4 = [`LIST_BYTES_PER_PHOTON`] bytes per photon, and their build (one bounded
 /// tree walk per marked cell) stays proportional to the photons.
 const MAX_MARKED_PER_PHOTON: usize = 2;
 const MAX_LIST_ENTRIES_PER_PHOTON: usize = 6;
@@ -59,17 +60,43 @@ impl<'a> Near<'a> {
     }
 }
 
-/// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree); and
-/// `power`, the largest RGB channel of the summed power of the photons in the 3×3×3 cells around it (every
-/// photon within the radius of a point of the cell is among them: [`OccupancyGrid::power_near`]).
+/// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree); and what
+/// the photons in the 3×3×3 cells around it (every photon within the radius of a point of the cell is among
+/// them: [`OccupancyGrid::photons_near`]) hold: `power`, the largest RGB channel of their summed power,
+/// `count`, their number (saturating), and `dirs`, the box of their arrival directions. 16 bytes (checked
+/// below).
 #[derive(Clone, Copy, Debug)]
 struct CellList {
     start: u32,
-    len: u32,
     power: f32,
+    dirs: DirBox,
+    len: u8,
+    count: u8,
 }
 
-const NO_LIST: u32 = u32::MAX;
+const _: () = assert!(size_of::<CellList>() == 16 && MAX_LEAVES_PER_CELL < NO_LIST as usize);
+
+/// What may lie within the search radius of a point ([`OccupancyGrid::photons_near`]): the photons of the
+/// 3×3×3 cells around it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotonsNear {
+    /// The largest RGB channel of their summed power (0: none).
+    pub power: f32,
+    /// Their number, saturating at `u8::MAX`.
+    pub count: u8,
+    /// A box holding their arrival directions ωₚ ([`DirBox::EMPTY`] when there are none).
+    pub dirs: DirBox,
+}
+
+impl PhotonsNear {
+    /// Whether fewer than `k` photons lie there (then a k-NN search within the radius finds fewer than `k`).
+    #[must_use]
+    pub fn fewer_than(&self, k: usize) -> bool {
+        self.count < u8::MAX && usize::from(self.count) < k
+    }
+}
+
+const NO_LIST: u8 = u8::MAX;
 
 /// Cells per axis at most (128³ bits = 256 KiB); beyond it the cells grow (the test stays exact, only
 /// coarser).
@@ -116,7 +143,7 @@ impl OccupancyGrid {
             }
         }
         grid.build_lists(tree, radius, cell);
-        grid.add_power(tree);
+        grid.add_sums(tree);
         Some(grid)
     }
 
@@ -157,28 +184,33 @@ impl OccupancyGrid {
                 let list = if room && tree.leaves_near_box(min, max, reach, MAX_LEAVES_PER_CELL, &mut ids) {
                     let start = self.leaf_ids.len() as u32;
                     self.leaf_ids.extend_from_slice(&ids);
-                    CellList { start, len: ids.len() as u32, power: 0.0 }
+                    CellList { start, len: ids.len() as u8, power: 0.0, dirs: DirBox::EMPTY, count: 0 }
                 } else {
-                    CellList { start: 0, len: NO_LIST, power: 0.0 }
+                    CellList { start: 0, len: NO_LIST, power: 0.0, dirs: DirBox::EMPTY, count: 0 }
                 };
                 self.lists.push(list);
             }
         }
     }
 
-    /// Adds each photon's power to the 27 cells its own cell's block marked (only where lists were built).
-    fn add_power(&mut self, tree: &KdTree) {
+    /// Adds each photon's power, count and direction to the 27 cells its own cell's block marked (only where
+    /// lists were built).
+    fn add_sums(&mut self, tree: &KdTree) {
         if self.rank.is_empty() {
             return;
         }
-        let mut sums = vec![Vec3::ZERO; self.lists.len()];
+        let mut sums = vec![(Vec3::ZERO, 0u8, Vec3::INFINITY, Vec3::NEG_INFINITY); self.lists.len()];
         for (p, d) in tree.photons().iter().zip(tree.decoded()) {
             for r in self.block_around(p.position()).filter_map(|i| self.rank_of(i)) {
-                sums[r] += d.power;
+                let (power, count, lo, hi) = &mut sums[r];
+                *power += d.power;
+                *count = count.saturating_add(1);
+                *lo = lo.min(d.wi);
+                *hi = hi.max(d.wi);
             }
         }
-        for (list, sum) in self.lists.iter_mut().zip(sums) {
-            list.power = sum.max_element();
+        for (list, (power, count, lo, hi)) in self.lists.iter_mut().zip(sums) {
+            (list.power, list.count, list.dirs) = (power.max_element(), count, DirBox::new(lo, hi));
         }
     }
 
@@ -200,17 +232,21 @@ impl OccupancyGrid {
         (word & (1 << b) != 0 && !self.rank.is_empty()).then(|| self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize)
     }
 
-    /// The largest RGB channel of the summed power of the photons that may lie within the radius of `p` (a
-    /// bound: those of the 3×3×3 cells around `p`'s cell): 0 where none does, `None` where the grid keeps no
-    /// sums (no lists were built) or `p` is not finite.
+    /// The photons that may lie within the radius of `p` (a bound: those of the 3×3×3 cells around `p`'s
+    /// cell): their power, number and the box of their directions, power 0 where none does; `None` where the grid
+    /// keeps no sums (no lists were built) or `p` is not finite.
     #[inline]
     #[must_use]
-    pub fn power_near(&self, p: Vec3) -> Option<f32> {
+    pub fn photons_near(&self, p: Vec3) -> Option<PhotonsNear> {
         if !p.is_finite() || self.rank.is_empty() {
             return None;
         }
-        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Some(0.0) };
-        Some(self.rank_of(i).map_or(0.0, |r| self.lists[r].power))
+        let none = PhotonsNear { power: 0.0, count: 0, dirs: DirBox::EMPTY };
+        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Some(none) };
+        Some(self.rank_of(i).map_or(none, |r| {
+            let list = &self.lists[r];
+            PhotonsNear { power: list.power, count: list.count, dirs: list.dirs }
+        }))
     }
 
     /// Where the search for the photons within the radius of `p` starts (module docs): nowhere (no photon
@@ -232,7 +268,7 @@ impl OccupancyGrid {
         if list.len == NO_LIST {
             Near::Tree
         } else {
-            Near::Leaves(&self.leaf_ids[list.start as usize..(list.start + list.len) as usize])
+            Near::Leaves(&self.leaf_ids[list.start as usize..list.start as usize + usize::from(list.len)])
         }
     }
 
@@ -270,6 +306,7 @@ fn index_in(dims: [usize; 3], c: [usize; 3]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::photon::dirbox::DIR_STEPS;
     use crate::photon::kdtree::KnnResult;
     use crate::photon::Photon;
     use crate::sampler::Sampler;
@@ -311,20 +348,24 @@ mod tests {
         assert!(OccupancyGrid::new(&KdTree::build(Vec::new()).unwrap(), 1.0).is_none());
     }
 
-    /// `power_near` bounds the photon power within the radius (the largest RGB channel of the brute-force sum
-    /// of the photons within it, for a grid that keeps lists), is 0 where no photon lies in the 3×3×3 cells
-    /// around the point, and is no more than the whole map's power; without lists it is `None`.
+    /// `photons_near` bounds the photon power within the radius (the largest RGB channel of the brute-force
+    /// sum of the photons within it, for a grid that keeps lists) and its box holds their directions; the
+    /// power is 0 where no photon lies in the 3×3×3 cells around the point, and no more than the whole map's
+    /// power; without lists it is `None`.
     #[test]
-    fn power_near_bounds_the_power_within_the_radius() {
+    fn photons_near_bounds_the_photons_within_the_radius() {
         let mut s = Sampler::for_key(13, 0, 0);
-        // A dense spot of red photons in a sparse layer of blue ones, on a plane.
+        // A dense spot of red photons from one direction beside a sparse layer of blue ones from all over the
+        // upper hemisphere, on a plane.
+        let red = Vec3::new(0.6, 0.8, 0.0);
         let photons: Vec<Photon> = (0..4000)
             .map(|i| {
                 let u = s.next_2d();
                 if i % 4 == 0 {
-                    Photon::new(Vec3::new(0.2 * u.x, 0.0, 0.2 * u.y), Vec3::Y, Vec3::new(2.0, 0.1, 0.0), 1.0)
+                    Photon::new(Vec3::new(2.6 + 0.2 * u.x, 0.0, 0.2 * u.y), red, Vec3::new(2.0, 0.1, 0.0), 1.0)
                 } else {
-                    Photon::new(Vec3::new(4.0 * u.x - 2.0, 0.0, 4.0 * u.y - 2.0), Vec3::Y, Vec3::new(0.0, 0.0, 0.5), 1.0)
+                    let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
+                    Photon::new(Vec3::new(4.0 * u.x - 2.0, 0.0, 4.0 * u.y - 2.0), Vec3::new(w.x, w.z, w.y), Vec3::new(0.0, 0.0, 0.5), 1.0)
                 }
             })
             .collect();
@@ -332,27 +373,42 @@ mod tests {
         let tree = KdTree::build(photons.clone()).unwrap();
         let radius = 0.1;
         let grid = OccupancyGrid::new(&tree, radius).unwrap();
-        let (mut tight, mut zero) = (0, 0);
+        let (mut tight, mut zero, mut narrow) = (0, 0, 0);
         for _ in 0..5000 {
             let q = Vec3::new(6.0 * s.next_1d() - 3.0, 0.2 * s.next_1d() - 0.1, 6.0 * s.next_1d() - 3.0);
-            let within: Vec3 = photons.iter().filter(|p| p.position().distance_squared(q) <= radius * radius).map(|p| p.decoded().power).sum();
-            let bound = grid.power_near(q).expect("lists were built");
-            assert!(bound >= within.max_element() * (1.0 - 1e-5), "{q}: bound {bound} below the power within the radius {within}");
-            assert!(bound <= total.max_element() * (1.0 + 1e-5), "{q}: bound {bound} above the map's power");
-            if bound == 0.0 {
+            let near: Vec<&Photon> = photons.iter().filter(|p| p.position().distance_squared(q) <= radius * radius).collect();
+            let within: Vec3 = near.iter().map(|p| p.decoded().power).sum();
+            let bound = grid.photons_near(q).expect("lists were built");
+            assert!(usize::from(bound.count) >= near.len().min(255), "{q}: count {} below the {} photons within the radius", bound.count, near.len());
+            assert!(bound.power >= within.max_element() * (1.0 - 1e-5), "{q}: bound {} below the power within the radius {within}", bound.power);
+            assert!(bound.power <= total.max_element() * (1.0 + 1e-5), "{q}: bound {} above the map's power", bound.power);
+            for p in &near {
+                let w = p.decoded().wi;
+                let inside = w.cmpge(bound.dirs.min() - Vec3::splat(1e-6)).all() && w.cmple(bound.dirs.max() + Vec3::splat(1e-6)).all();
+                assert!(inside, "{q}: direction {w} outside [{}, {}]", bound.dirs.min(), bound.dirs.max());
+            }
+            if bound.power == 0.0 {
                 zero += 1;
                 assert_eq!(grid.near(q), Near::Empty, "{q}: no power but photons may be near");
-            } else if bound <= 12.0 * within.max_element() {
+            } else if bound.power <= 12.0 * within.max_element() {
                 tight += 1;
+            }
+            // Beyond the blue layer (x ≤ 2) by more than two cells, the box is the red spot's one direction,
+            // rounded outward by at most a step.
+            if q.x > 2.35 && bound.power > 0.0 {
+                narrow += 1;
+                let red = photons[0].decoded().wi;
+                let (lo, hi) = (red - bound.dirs.min(), bound.dirs.max() - red);
+                assert!(lo.min(hi).min_element() >= -1e-6 && lo.max(hi).max_element() <= 1.0 / DIR_STEPS, "{q}: [{}, {}] for {red}", bound.dirs.min(), bound.dirs.max());
             }
         }
         // The bound is a local figure, not the map's power: queries outside the layer see 0, and most
         // inside it see a sum over a few cells (a 3×3 block of cells is 9/π the search disk's area).
-        assert!(zero > 500 && tight > 1500, "{zero} queries with no power, {tight} with a bound within 12× the power in reach");
+        assert!(zero > 500 && tight > 1500 && narrow > 10, "{zero} queries with no power, {tight} with a bound within 12× the power in reach, {narrow} near the red spot");
         // Without lists (more than 2 marked cells per photon: a sparse cloud), no sums.
         let sparse: Vec<Photon> = (0..200).map(|_| Photon::new(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 50.0, Vec3::Y, Vec3::ONE, 1.0)).collect();
         let sparse_grid = OccupancyGrid::new(&KdTree::build(sparse).unwrap(), 0.5).unwrap();
-        assert_eq!(sparse_grid.power_near(Vec3::splat(25.0)), None);
+        assert_eq!(sparse_grid.photons_near(Vec3::splat(25.0)), None);
     }
 
     /// A search from the cell's leaves ([`OccupancyGrid::near`]) finds the k-NN of the search from the root:

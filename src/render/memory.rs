@@ -7,10 +7,11 @@
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
-//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 138 B: the record (32 B),
+//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 148 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
-//!   photons: at most 8 B) and leaves (48 B per 8 to 16 photons: at most 6 B), and the occupancy grid's
-//!   per-cell leaf lists and power sums (at most 48 B). A photon that meets a blend of delta and non-delta lobes can be
+//!   photons: at most 8 B), leaves (48 B per 8 to 16 photons: at most 6 B) and their power and direction
+//!   sums (12 B per leaf: at most 2 B), and the occupancy grid's per-cell leaf lists and sums (at most
+//!   56 B). A photon that meets a blend of delta and non-delta lobes can be
 //!   stored more than once, so this is an estimate, not a bound. The occupancy grid's bits (at most 132³
 //!   bits, 280 KiB) are not counted.
 //!
@@ -65,7 +66,7 @@ impl MemoryEstimate {
 #[must_use]
 pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
     let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = budget;
-    let per_photon = size_of::<Photon>() + size_of::<[f32; 3]>() + size_of::<DecodedPhoton>() + 8 + 6 + LIST_BYTES_PER_PHOTON;
+    let per_photon = size_of::<Photon>() + size_of::<[f32; 3]>() + size_of::<DecodedPhoton>() + 8 + 6 + 2 + LIST_BYTES_PER_PHOTON;
     n.saturating_mul(per_photon as u64)
 }
 
@@ -109,8 +110,8 @@ mod tests {
 
     #[test]
     fn photon_map_counts_photons_and_nodes() {
-        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 138_000);
-        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 138_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 148_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 148_000);
         // Absurd budgets saturate instead of wrapping to a small number.
         assert_eq!(photon_map_bytes(PhotonBudget::Emitted(u64::MAX)), u64::MAX);
     }
