@@ -30,7 +30,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::KnnResult;
-use crate::photon::{photon_chain_reaches, Near, OccupancyGrid, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -82,6 +82,19 @@ pub struct GatherScratch {
     batch: GatherBatch,
     /// The last leaf bound of [`CausticEstimator::estimate_bound`].
     leaf_bound: Option<LeafBound>,
+}
+
+/// A non-delta eye vertex as the caustic estimators see it, made once per vertex
+/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, and the occupancy
+/// grid's cell at `x`, which the roulette's bound and the search both read.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver<'s> {
+    pub si: &'s SurfaceInteraction,
+    pub bsdf: &'s Bsdf,
+    pub wo_world: Vec3,
+    /// `si.frame.to_local(wo_world)`.
+    pub wo_local: Vec3,
+    cell: CellAt,
 }
 
 /// The photons of the kd-tree's leaves within `radius` of `p` ([`crate::photon::KdTree::bound_within`]):
@@ -287,18 +300,28 @@ impl<'a> CausticEstimator<'a> {
         self.map.and_then(PhotonMap::emission)
     }
 
+    /// The vertex `si` with outgoing direction `wo_world` (`wo_local` in its shading frame) and BSDF `bsdf`,
+    /// as [`CausticEstimator::gather_probability`] and [`CausticEstimator::gather`] take it.
+    #[must_use]
+    pub fn receiver<'s>(&self, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo_world: Vec3, wo_local: Vec3) -> Receiver<'s> {
+        debug_assert!(wo_local.distance(si.frame.to_local(wo_world)) <= 1e-5, "wo_local is not wo_world in the shading frame");
+        // Without a grid the search starts from the root and no bound reads the cell.
+        let cell = self.occupancy.as_ref().map_or(CellAt::NotFinite, |grid| grid.cell_at(si.p));
+        Receiver { si, bsdf, wo_world, wo_local, cell }
+    }
+
     /// The probability with which T1 runs at `x` (method.md §3.1): `P = min(1, max(β)·c/(κ·L))`, at least
     /// [`GATHER_MIN_PROBABILITY`], with `c` the bound of [`CausticEstimator::estimate_bound`] and `L` the
     /// largest channel of `collected` (the larger of the radiance the eye sample has gathered so far and its
     /// pixel's mean). 1 where `L` is 0 and where no bound is known. `scratch` is the one the estimate would
     /// use (its recent queries bound the radius).
     #[must_use]
-    pub fn gather_probability(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch) -> f32 {
+    pub fn gather_probability(&self, rx: &Receiver, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch) -> f32 {
         let budget = GATHER_ROULETTE_KAPPA * collected.max_element() / beta.max_element();
         if !(budget > 0.0) || budget == f32::INFINITY {
             return 1.0;
         }
-        match self.estimate_bound(si, wo_world, bsdf, scratch) {
+        match self.estimate_bound(rx, scratch) {
             Some(c) if c < budget => (c / budget).max(GATHER_MIN_PROBABILITY),
             _ => 1.0,
         }
@@ -317,9 +340,9 @@ impl<'a> CausticEstimator<'a> {
     /// 4. where `0 < r_lo`: the grid's photons, with ΔA that of `r_lo`.
     /// `None` where none applies (no recent query near `x`).
     #[must_use]
-    pub fn estimate_bound(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, scratch: &mut GatherScratch) -> Option<f32> {
+    pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch) -> Option<f32> {
         let map = self.map?;
-        let wo_local = si.frame.to_local(wo_world);
+        let Receiver { si, bsdf, wo_world, wo_local, cell } = *rx;
         let mirror = si.frame.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z));
         // f toward the point of a box of directions nearest the mirror direction, put on ωₒ's side (the
         // non-delta lobes reflect), times the power, over the area.
@@ -331,7 +354,7 @@ impl<'a> CausticEstimator<'a> {
             let wi = Vec3::new(wi.x, wi.y, wi.z.abs().max(1e-3).copysign(wo_local.z)).normalize();
             bsdf.f_pdf(wo_local, wi, TransportMode::Radiance).0.max_element() * power / area
         };
-        let near = self.occupancy.as_ref().and_then(|grid| grid.photons_near(si.p));
+        let near = self.occupancy.as_ref().and_then(|grid| grid.photons_in(cell));
         if let Some(near) = near {
             if near.power == 0.0 {
                 return Some(0.0);
@@ -365,16 +388,16 @@ impl<'a> CausticEstimator<'a> {
     /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
-    pub fn gather(&self, si: &SurfaceInteraction, wo_world: Vec3, bsdf: &Bsdf, alpha: f32, scratch: &mut GatherScratch) -> Gather {
+    pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch) -> Gather {
+        let Receiver { si, bsdf, wo_world, wo_local, cell } = *rx;
         let GatherScratch { knn, batch, .. } = scratch;
-        let (delta_area, searched) = self.search(si.p, si.ng, wo_world.dot(si.ng), knn);
+        let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), knn);
         let (Some(map), Some(r2)) = (self.map, searched) else {
             return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
         };
         // Directions, p_emit and power decoded once per photon at build time (KdTree::decoded): the search
         // tested the direction, and the sum below finds the rest in the same record.
         let decoded = map.tree().decoded();
-        let wo_local = si.frame.to_local(wo_world);
         // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
         let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         let mut sum = Vec3::ZERO;
@@ -423,12 +446,13 @@ impl<'a> CausticEstimator<'a> {
     }
 
     /// T1's k-NN search at `p` (method.md §3): the photons arriving on the side of `n_g` that `wo_side = ωₒ·n_g`
-    /// gives, left in `knn`; returns the estimate's ΔA and its `r²`. `r²` is `None` when `knn` was not written:
+    /// gives, left in `knn`; returns the estimate's ΔA and its `r²`. `cell` is `p`'s in the occupancy grid
+    /// (unread without one). `r²` is `None` when `knn` was not written:
     /// without a photon map (ΔA is then the floor at `p`), and where no photon lies within `max_radius` (the
     /// occupancy grid's answer for one memory read; ΔA is then that of `r = max_radius`).
-    fn search(&self, p: Vec3, ng: Vec3, wo_side: f32, knn: &mut KnnResult) -> (f32, Option<f32>) {
+    fn search(&self, p: Vec3, cell: CellAt, ng: Vec3, wo_side: f32, knn: &mut KnnResult) -> (f32, Option<f32>) {
         let Some(map) = self.map else { return (self.min_area(p), None) };
-        let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near(p));
+        let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near_in(cell));
         if near == Near::Empty {
             return (self.estimate_area(self.max_radius * self.max_radius, p).1, None);
         }
@@ -444,7 +468,8 @@ impl<'a> CausticEstimator<'a> {
     /// `ΔA(x)` of a vertex whose density estimate was skipped (method.md §3.1): the same search as
     /// [`CausticEstimator::gather`]'s, so the same area the estimate would have used.
     pub fn area_at(&self, p: Vec3, ng: Vec3, wo_side: f32, scratch: &mut GatherScratch) -> f32 {
-        self.search(p, ng, wo_side, &mut scratch.knn).0
+        let cell = self.occupancy.as_ref().map_or(CellAt::NotFinite, |grid| grid.cell_at(p));
+        self.search(p, cell, ng, wo_side, &mut scratch.knn).0
     }
 
     /// The squared radius `s·r²_kNN` of the estimate at `x` and its area ΔA (clamped, method.md §3, §6).
@@ -491,6 +516,11 @@ mod tests {
     use crate::photon::Photon;
     use crate::sampler::Sampler;
 
+    /// The vertex `si` seen from `wo` with BSDF `bsdf`, as the estimator's queries take it.
+    fn vertex<'s>(est: &CausticEstimator, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo: Vec3) -> Receiver<'s> {
+        est.receiver(si, bsdf, wo, si.frame.to_local(wo))
+    }
+
     /// `maps` independent maps of `m` photons uniform on the square [−1, 1]² of the plane z = 0, each
     /// arriving straight down with power 1/m (so the irradiance is E = 1/4), and the mean of `L₁` over
     /// `queries` uniform points of [−½, ½]² per map, for a white diffuse plane (f = 1/π), divided by the
@@ -513,7 +543,7 @@ mod tests {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
                 let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
-                let g = est.gather(&si, Vec3::Z, &bsdf, 1.0, &mut scratch);
+                let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut scratch);
                 worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * scratch.knn.r2()).abs() / g.delta_area);
                 sum += f64::from(g.l1.x);
             }
@@ -561,7 +591,7 @@ mod tests {
         let mut estimate = |photons: Vec<Photon>| {
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
             let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 1.0, 1.0);
-            let g = est.gather(&si, Vec3::Z, &bsdf, 1.0, &mut scratch);
+            let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut scratch);
             let knn_area = std::f32::consts::PI * scratch.knn.r2();
             assert!(knn_area < 1e-7 && g.delta_area == knn_area, "ΔA {} clamped above the k-NN area {knn_area}", g.delta_area);
             g.l1.x
@@ -613,7 +643,7 @@ mod tests {
             let u = s.next_2d();
             let si = plane_point(Vec3::new(3.0 * u.x - 1.5, 3.0 * u.y - 1.5, 0.0));
             let wo = if s.next_1d() < 0.1 { -Vec3::Z } else { Vec3::Z };
-            let g = est.gather(&si, wo, &bsdf, 1.0, &mut gather_scratch);
+            let g = est.gather(&vertex(&est, &si, &bsdf, wo), 1.0, &mut gather_scratch);
             let area = est.area_at(si.p, si.ng, wo.dot(si.ng), &mut area_scratch);
             assert_eq!(g.delta_area.to_bits(), area.to_bits(), "{}: estimate's ΔA {} but deferred {area}", si.p, g.delta_area);
             match g.photons {
@@ -642,7 +672,7 @@ mod tests {
         // c = 0.8·(0.5/π)·Φ/(π r²).
         let c = 0.8 * (0.5 / std::f32::consts::PI) * near.power / (std::f32::consts::PI * max_radius * max_radius);
         let mut scratch = GatherScratch::default();
-        let mut p = |collected: Vec3| est.gather_probability(&si, Vec3::Z, &bsdf, beta, collected, &mut scratch);
+        let mut p = |collected: Vec3| est.gather_probability(&vertex(&est, &si, &bsdf, Vec3::Z), beta, collected, &mut scratch);
         assert_eq!(p(Vec3::ZERO), 1.0);
         assert_eq!(p(Vec3::new(0.0, c * 0.5 / GATHER_ROULETTE_KAPPA, 0.0)), 1.0);
         let half = p(Vec3::new(0.0, 0.0, 2.0 * c / GATHER_ROULETTE_KAPPA));
@@ -650,10 +680,10 @@ mod tests {
         assert_eq!(p(Vec3::splat(1e6 * c)), GATHER_MIN_PROBABILITY);
         // No photon near: the estimate is 0, P the least.
         let far = plane_point(Vec3::new(5.0, 5.0, 0.0));
-        assert_eq!(est.estimate_bound(&far, Vec3::Z, &bsdf, &mut scratch), Some(0.0));
-        assert_eq!(est.gather_probability(&far, Vec3::Z, &bsdf, beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.estimate_bound(&vertex(&est, &far, &bsdf, Vec3::Z), &mut scratch), Some(0.0));
+        assert_eq!(est.gather_probability(&vertex(&est, &far, &bsdf, Vec3::Z), beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
         // A BSDF that reflects nothing toward the photons: the estimate is 0, P is the least.
-        assert_eq!(est.gather_probability(&si, Vec3::Z, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.gather_probability(&vertex(&est, &si, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, Vec3::Z), beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
         // A sharp GGX lobe: the bound takes f toward the photons' directions (all straight down, +z), not at
         // its peak. Seen along the normal the peak is where the photons arrive from: P = 1. Seen from 60°
         // off the normal, f toward +z is the lobe's tail, far below its peak, and so is P.
@@ -668,8 +698,8 @@ mod tests {
         assert!(tail.x < 1e-4 * peak.x, "tail {tail}, peak {peak}");
         let c_tail = 0.8 * tail.x * near.power / (std::f32::consts::PI * max_radius * max_radius);
         let budget = 2.0 * c_tail / GATHER_ROULETTE_KAPPA;
-        let along = est.gather_probability(&si, Vec3::Z, &glossy, beta, Vec3::splat(budget), &mut scratch);
-        let from_60 = est.gather_probability(&si, oblique, &glossy, beta, Vec3::splat(budget), &mut scratch);
+        let along = est.gather_probability(&vertex(&est, &si, &glossy, Vec3::Z), beta, Vec3::splat(budget), &mut scratch);
+        let from_60 = est.gather_probability(&vertex(&est, &si, &glossy, oblique), beta, Vec3::splat(budget), &mut scratch);
         assert_eq!(along, 1.0);
         assert!((from_60 - 0.5).abs() < 0.05, "P = {from_60}, expected about 1/2");
     }
@@ -696,9 +726,9 @@ mod tests {
         let mut scratch = GatherScratch::default();
         let p0 = plane_point(Vec3::new(0.3, 0.1, 0.0));
         assert!(!est.occupancy.as_ref().unwrap().photons_near(p0.p).unwrap().fewer_than(20));
-        assert_eq!(est.estimate_bound(&p0, Vec3::Z, &bsdf, &mut scratch), None);
-        assert_eq!(est.gather_probability(&p0, Vec3::Z, &bsdf, Vec3::ONE, Vec3::splat(1e6), &mut scratch), 1.0);
-        let first = est.gather(&p0, Vec3::Z, &bsdf, 1.0, &mut scratch);
+        assert_eq!(est.estimate_bound(&vertex(&est, &p0, &bsdf, Vec3::Z), &mut scratch), None);
+        assert_eq!(est.gather_probability(&vertex(&est, &p0, &bsdf, Vec3::Z), Vec3::ONE, Vec3::splat(1e6), &mut scratch), 1.0);
+        let first = est.gather(&vertex(&est, &p0, &bsdf, Vec3::Z), 1.0, &mut scratch);
         let r0 = scratch.knn.r2().sqrt();
         let (mut worst, mut at) = (0.0f32, p0.p);
         for i in 0..400 {
@@ -706,8 +736,8 @@ mod tests {
             let u = s.next_2d();
             at = (at + 0.1 * r0 * Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0)).clamp(Vec3::splat(-0.5), Vec3::splat(0.5));
             let x = plane_point(at);
-            let c = est.estimate_bound(&x, Vec3::Z, &bsdf, &mut scratch).expect("a recent query is near");
-            let g = est.gather(&x, Vec3::Z, &bsdf, 1.0, &mut scratch);
+            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut scratch).expect("a recent query is near");
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut scratch);
             assert!(c >= g.l1.max_element() * (1.0 - 1e-5), "query {i} at {}: bound {c} below the estimate {}", x.p, g.l1);
             worst = worst.max(c / g.l1.max_element());
         }

@@ -176,9 +176,10 @@ impl<'a> PathTracer<'a> {
             let mut area = None;
             let alpha = if first_non_delta { self.alpha } else { 1.0 };
             if non_delta && self.caustics.active() {
-                let p_gather = self.caustics.gather_probability(&si, wo_world, bsdf, beta, l.max(pixel_mean), scratch);
+                let rx = self.caustics.receiver(&si, bsdf, wo_world, wo_local);
+                let p_gather = self.caustics.gather_probability(&rx, beta, l.max(pixel_mean), scratch);
                 if p_gather >= 1.0 || sampler.next_1d() < p_gather {
-                    let g = self.caustics.gather(&si, wo_world, bsdf, alpha, scratch);
+                    let g = self.caustics.gather(&rx, alpha, scratch);
                     stats.knn_queries += 1;
                     stats.q1.merge(&g.q1);
                     l += beta * g.l1 / p_gather;

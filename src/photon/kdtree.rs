@@ -24,6 +24,8 @@
 //! photon inside it: the result is exact (the same sorted distances as a brute-force scan, ties broken
 //! arbitrarily).
 
+use std::ops::ControlFlow;
+
 use rayon::prelude::*;
 
 use super::dirbox::DirBox;
@@ -495,11 +497,26 @@ impl KdTree {
     pub fn bound_within(&self, p: Vec3, radius: f32) -> LeavesNear {
         let (q, r2) = (Vec3A::from(p), radius * radius);
         let mut near = LeavesNear { power: 0.0, lo: Vec3::INFINITY, hi: Vec3::NEG_INFINITY };
-        if self.photons.is_empty() || !(NodeBox::new(self.root).dist2(q) <= r2) {
-            return near;
+        let _ = self.walk_leaves(
+            |b| b.dist2(q) <= r2,
+            |leaf| {
+                let sums = &self.leaf_sums[leaf as usize];
+                near.power += sums.power;
+                (near.lo, near.hi) = (near.lo.min(sums.dirs.min()), near.hi.max(sums.dirs.max()));
+                ControlFlow::Continue(())
+            },
+        );
+        near
+    }
+
+    /// Visits, left to right, the leaves (by id) under every node whose box passes `near` (a test that a
+    /// parent's box passes whenever a child's does: a distance or overlap test), until `visit` breaks.
+    /// Depth-first over (node, height, first leaf id); a stack of one entry per level is enough, as a
+    /// node's right child waits while its left subtree is walked.
+    fn walk_leaves(&self, near: impl Fn(&NodeBox) -> bool, mut visit: impl FnMut(u32) -> ControlFlow<()>) -> ControlFlow<()> {
+        if self.photons.is_empty() || !near(&NodeBox::new(self.root)) {
+            return ControlFlow::Continue(());
         }
-        // Depth-first over (node, height, first leaf id); a stack of one entry per level is enough, as a
-        // node's right child waits while its left subtree is walked.
         let mut stack = [(0usize, 0u32, 0u32); 33];
         stack[0] = (0, self.depth, 0);
         let mut top = 1;
@@ -507,22 +524,21 @@ impl KdTree {
             top -= 1;
             let (node, h, first) = stack[top];
             if h == 0 {
-                let sums = &self.leaf_sums[first as usize];
-                near.power += sums.power;
-                (near.lo, near.hi) = (near.lo.min(sums.dirs.min()), near.hi.max(sums.dirs.max()));
+                visit(first)?;
                 continue;
             }
             let [bl, br] = &self.nodes[node].children;
-            if br.dist2(q) <= r2 {
+            // Right pushed first: leaves come out left to right.
+            if near(br) {
                 stack[top] = (node + (1usize << (h - 1)), h - 1, first + (1u32 << (h - 1)));
                 top += 1;
             }
-            if bl.dist2(q) <= r2 {
+            if near(bl) {
                 stack[top] = (node + 1, h - 1, first);
                 top += 1;
             }
         }
-        near
+        ControlFlow::Continue(())
     }
 
     /// The `k` nearest photons to `p` within `max_radius` (inclusive) among those for which `accept` is
@@ -566,31 +582,20 @@ impl KdTree {
     pub fn leaves_near_box(&self, min: Vec3, max: Vec3, reach: f32, cap: usize, out: &mut Vec<u32>) -> bool {
         let start = out.len();
         let (lo, hi) = (Vec3A::from(min) - Vec3A::splat(reach), Vec3A::from(max) + Vec3A::splat(reach));
-        let overlaps = |b: &NodeBox| b.min.cmple(hi).all() && b.max.cmpge(lo).all();
-        // Depth-first over (node, height, first leaf id) of the subtrees whose box overlaps.
-        let mut stack = vec![(0usize, self.depth, 0u32)];
-        if self.photons.is_empty() || !overlaps(&NodeBox::new(self.root)) {
-            return true;
-        }
-        while let Some((node, h, first)) = stack.pop() {
-            if h == 0 {
+        let walked = self.walk_leaves(
+            |b| b.min.cmple(hi).all() && b.max.cmpge(lo).all(),
+            |leaf| {
                 if out.len() - start == cap {
-                    out.truncate(start);
-                    return false;
+                    return ControlFlow::Break(());
                 }
-                out.push(first);
-                continue;
-            }
-            let [bl, br] = &self.nodes[node].children;
-            // Right pushed first: leaves come out left to right.
-            if overlaps(br) {
-                stack.push((node + (1usize << (h - 1)), h - 1, first + (1u32 << (h - 1))));
-            }
-            if overlaps(bl) {
-                stack.push((node + 1, h - 1, first));
-            }
+                out.push(leaf);
+                ControlFlow::Continue(())
+            },
+        );
+        if walked.is_break() {
+            out.truncate(start);
         }
-        true
+        walked.is_continue()
     }
 
     /// [`KdTree::knn_warm`] searching `from` a list of leaves instead of the root when it is given: the

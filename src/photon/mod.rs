@@ -13,5 +13,5 @@ pub use kdtree::{KdTree, KdTreeError, KnnResult, LeavesNear, Neighbor, SearchFro
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
 pub use dirbox::DirBox;
-pub use occupancy::{Near, OccupancyGrid, PhotonsNear};
+pub use occupancy::{CellAt, Near, OccupancyGrid, PhotonsNear};
 pub use record::{DecodedPhoton, Photon};

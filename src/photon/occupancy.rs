@@ -60,6 +60,19 @@ impl<'a> Near<'a> {
     }
 }
 
+/// Where a query point falls in the grid ([`OccupancyGrid::cell_at`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellAt {
+    /// The point is not finite: the search decides, as without a grid.
+    NotFinite,
+    /// Outside the grid or in an unmarked cell: no photon within the radius.
+    Empty,
+    /// A marked cell of a grid that keeps no lists (too many marked cells).
+    NoList,
+    /// A marked cell, by its rank among the marked cells (its index in the lists).
+    Listed(u32),
+}
+
 /// A marked cell's leaves: `leaf_ids[start .. start + len]`, or `len == NO_LIST` (walk the tree); and what
 /// the photons in the 3×3×3 cells around it (every photon within the radius of a point of the cell is among
 /// them: [`OccupancyGrid::photons_near`]) hold: `power`, the largest RGB channel of their summed power,
@@ -232,44 +245,72 @@ impl OccupancyGrid {
         (word & (1 << b) != 0 && !self.rank.is_empty()).then(|| self.rank[w] as usize + (word & ((1u64 << b) - 1)).count_ones() as usize)
     }
 
-    /// The photons that may lie within the radius of `p` (a bound: those of the 3×3×3 cells around `p`'s
-    /// cell): their power, number and the box of their directions, power 0 where none does; `None` where the grid
-    /// keeps no sums (no lists were built) or `p` is not finite.
+    /// Where `p` falls in the grid, found once per query point: [`OccupancyGrid::near_in`] and
+    /// [`OccupancyGrid::photons_in`] read it.
+    #[inline]
+    #[must_use]
+    pub fn cell_at(&self, p: Vec3) -> CellAt {
+        if !p.is_finite() {
+            return CellAt::NotFinite;
+        }
+        // Outside the grid: more than one cell (≥ the radius) from every photon.
+        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return CellAt::Empty };
+        if self.bits[i / 64] & (1 << (i % 64)) == 0 {
+            return CellAt::Empty;
+        }
+        // No rank: no lists (too many marked cells).
+        self.rank_of(i).map_or(CellAt::NoList, |r| CellAt::Listed(r as u32))
+    }
+
+    /// The photons that may lie within the radius of a point in `cell` (a bound: those of the 3×3×3 cells
+    /// around it): their power, number and the box of their directions, power 0 where none does; `None`
+    /// where the grid keeps no sums (no lists were built) or the point is not finite.
+    #[inline]
+    #[must_use]
+    pub fn photons_in(&self, cell: CellAt) -> Option<PhotonsNear> {
+        let none = PhotonsNear { power: 0.0, count: 0, dirs: DirBox::EMPTY };
+        match cell {
+            CellAt::NotFinite | CellAt::NoList => None,
+            _ if self.rank.is_empty() => None,
+            CellAt::Empty => Some(none),
+            CellAt::Listed(r) => {
+                let list = &self.lists[r as usize];
+                Some(PhotonsNear { power: list.power, count: list.count, dirs: list.dirs })
+            }
+        }
+    }
+
+    /// [`OccupancyGrid::photons_in`] the cell of `p`.
     #[inline]
     #[must_use]
     pub fn photons_near(&self, p: Vec3) -> Option<PhotonsNear> {
-        if !p.is_finite() || self.rank.is_empty() {
-            return None;
-        }
-        let none = PhotonsNear { power: 0.0, count: 0, dirs: DirBox::EMPTY };
-        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Some(none) };
-        Some(self.rank_of(i).map_or(none, |r| {
-            let list = &self.lists[r];
-            PhotonsNear { power: list.power, count: list.count, dirs: list.dirs }
-        }))
+        self.photons_in(self.cell_at(p))
     }
 
-    /// Where the search for the photons within the radius of `p` starts (module docs): nowhere (no photon
-    /// within reach), from a list of leaves, or from the root (a non-finite `p` too).
+    /// Where the search for the photons within the radius of a point in `cell` starts (module docs):
+    /// nowhere (no photon within reach), from a list of leaves, or from the root (a non-finite point too).
+    #[inline]
+    #[must_use]
+    pub fn near_in(&self, cell: CellAt) -> Near<'_> {
+        match cell {
+            CellAt::NotFinite | CellAt::NoList => Near::Tree,
+            CellAt::Empty => Near::Empty,
+            CellAt::Listed(r) => {
+                let list = self.lists[r as usize];
+                if list.len == NO_LIST {
+                    Near::Tree
+                } else {
+                    Near::Leaves(&self.leaf_ids[list.start as usize..list.start as usize + usize::from(list.len)])
+                }
+            }
+        }
+    }
+
+    /// [`OccupancyGrid::near_in`] the cell of `p`.
     #[inline]
     #[must_use]
     pub fn near(&self, p: Vec3) -> Near<'_> {
-        if !p.is_finite() {
-            return Near::Tree;
-        }
-        // Outside the grid: more than one cell (≥ the radius) from every photon.
-        let Some(i) = self.cell(p).and_then(|c| self.index(c)) else { return Near::Empty };
-        if self.bits[i / 64] & (1 << (i % 64)) == 0 {
-            return Near::Empty;
-        }
-        // No rank: no lists (too many marked cells).
-        let Some(r) = self.rank_of(i) else { return Near::Tree };
-        let list = self.lists[r];
-        if list.len == NO_LIST {
-            Near::Tree
-        } else {
-            Near::Leaves(&self.leaf_ids[list.start as usize..list.start as usize + usize::from(list.len)])
-        }
+        self.near_in(self.cell_at(p))
     }
 
     /// Whether a photon may lie within the radius of `p`: false only when none does. A non-finite `p` gives
