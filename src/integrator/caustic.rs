@@ -30,7 +30,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::KnnResult;
-use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonCounts, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -223,6 +223,8 @@ pub struct CausticEstimator<'a> {
     area_scale: f32,
     /// Where no photon lies within `max_radius` (`None` without photons or for an infinite radius).
     occupancy: Option<OccupancyGrid>,
+    /// How many photons can lie within `max_radius` of a point (`None` where no table is built).
+    counts: Option<PhotonCounts>,
 }
 
 /// Lower bound on ΔA at the query point `x` (method.md §3): coincident photons give r → 0, and ΔA divides
@@ -257,7 +259,8 @@ impl<'a> CausticEstimator<'a> {
         let map = if estimator == Estimator::Pt { None } else { map };
         let photons_radius = map.map(|m| m.tree().bounds().bounding_sphere().1).filter(|r| *r > 0.0 && r.is_finite()).unwrap_or(scene_radius);
         let occupancy = map.and_then(|m| OccupancyGrid::new(m.tree(), max_radius));
-        Self { estimator, map, knn: knn.max(1), max_radius, photons_radius, area_scale: 1.0, occupancy }
+        let counts = map.and_then(|m| PhotonCounts::new(m.tree(), max_radius));
+        Self { estimator, map, knn: knn.max(1), max_radius, photons_radius, area_scale: 1.0, occupancy, counts }
     }
 
     /// Shrinks the estimate's area to the fraction `scale` of the k-NN area (method.md §6); a scale
@@ -340,8 +343,11 @@ impl<'a> CausticEstimator<'a> {
     /// 3. where `0 < r_lo` and `r_hi < max_radius`: the kd-tree's leaves within `r_hi`
     ///    ([`crate::photon::KdTree::bound_within`], reused while the ball stays inside the last one
     ///    computed: [`LeafBound`]), with ΔA that of `r_lo`;
-    /// 4. where `0 < r_lo`: the grid's photons, with ΔA that of `r_lo`.
-    /// `None` where none applies (no recent query near `x`).
+    /// 4. where fewer than k photons can lie within `max_radius` ([`PhotonCounts::at_most_near`], n of them),
+    ///    the search finds them all and ΔA is that of `max_radius`: n times the largest photon power (no
+    ///    more than the grid's), toward the grid's direction box;
+    /// 5. where `0 < r_lo`: the grid's photons, with ΔA that of `r_lo`.
+    /// `None` where none applies (no recent query near `x`, and k photons or more may be within reach).
     #[must_use]
     pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch) -> Option<f32> {
         let map = self.map?;
@@ -368,11 +374,8 @@ impl<'a> CausticEstimator<'a> {
         }
         // The margins cover the rounding of the recent radii and distances (as the warm start's does).
         let (r_lo, r_hi) = scratch.knn.radius_bounds(si.p, self.knn, acceptance_key(si.ng, wo_world.dot(si.ng) > 0.0));
-        if !(r_lo > 0.0) {
-            return None;
-        }
-        let area = self.estimate_area(r_lo * r_lo * (1.0 - 1.0 / 65536.0), si.p).1;
-        if r_hi < self.max_radius {
+        let area_lo = || self.estimate_area(r_lo * r_lo * (1.0 - 1.0 / 65536.0), si.p).1;
+        if r_lo > 0.0 && r_hi < self.max_radius {
             let r_hi = r_hi * (1.0 + 1.0 / 65536.0);
             let leaves = match scratch.leaf_bound {
                 Some(b) if b.p.distance(si.p) + r_hi <= b.radius => b,
@@ -382,9 +385,22 @@ impl<'a> CausticEstimator<'a> {
                     *scratch.leaf_bound.insert(LeafBound { p: si.p, radius, power: near.power, lo: near.lo, hi: near.hi })
                 }
             };
-            return Some(bound(leaves.power, leaves.lo, leaves.hi, area));
+            return Some(bound(leaves.power, leaves.lo, leaves.hi, area_lo()));
         }
-        near.map(|near| bound(near.power, near.dirs.min(), near.dirs.max(), area))
+        // Fewer than k photons within max_radius (the fine counts): the search finds them all, over the
+        // area of max_radius, and they carry at most n times the largest photon power.
+        if let Some(counts) = &self.counts {
+            let n = counts.at_most_near(si.p);
+            if (n as usize) < self.knn {
+                let power = n as f32 * counts.max_power();
+                let (power, lo, hi) = near.map_or((power, Vec3::NEG_ONE, Vec3::ONE), |near| (power.min(near.power), near.dirs.min(), near.dirs.max()));
+                return Some(bound(power, lo, hi, self.estimate_area(self.max_radius * self.max_radius, si.p).1));
+            }
+        }
+        if !(r_lo > 0.0) {
+            return None;
+        }
+        near.map(|near| bound(near.power, near.dirs.min(), near.dirs.max(), area_lo()))
     }
 
     /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).

@@ -2,6 +2,7 @@
 //! and the occupancy grid that answers "no photon within the search radius" without a search.
 //! Emission and delta-chain tracing live beside them.
 
+pub mod counts;
 pub mod dirbox;
 pub mod emission;
 pub mod emit;
@@ -12,6 +13,7 @@ pub mod record;
 pub use kdtree::{KdTree, KdTreeError, KnnResult, LeavesNear, Neighbor, SearchFrom};
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
+pub use counts::PhotonCounts;
 pub use dirbox::DirBox;
 pub use occupancy::{CellAt, Near, OccupancyGrid, PhotonsNear};
 pub use record::{DecodedPhoton, Photon};

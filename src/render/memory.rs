@@ -7,19 +7,21 @@
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
-//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 148 B: the record (32 B),
+//!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 180 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
 //!   photons: at most 8 B), leaves (48 B per 8 to 16 photons: at most 6 B) and their power and direction
-//!   sums (12 B per leaf: at most 2 B), and the occupancy grid's per-cell leaf lists and sums (at most
-//!   56 B). A photon that meets a blend of delta and non-delta lobes can be
+//!   sums (12 B per leaf: at most 2 B), the occupancy grid's per-cell leaf lists and sums (at most
+//!   56 B), and the photon counts' summed-volume table (`photon::counts`: at most 8 cells of 4 B). A
+//!   photon that meets a blend of delta and non-delta lobes can be
 //!   stored more than once, so this is an estimate, not a bound. The occupancy grid's bits (at most 132³
-//!   bits, 280 KiB) are not counted.
+//!   bits, 280 KiB) and the counts table's 2¹⁶ cells that any map may have (256 KiB) are not counted.
 //!
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
 
 use crate::film::PixelSum;
 use crate::math::Vec3;
+use crate::photon::counts::MAX_CELLS_PER_PHOTON;
 use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
 use crate::photon::{DecodedPhoton, Photon, PhotonBudget};
 use crate::scene::{Scene, TriangleShading};
@@ -66,7 +68,7 @@ impl MemoryEstimate {
 #[must_use]
 pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
     let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = budget;
-    let per_photon = size_of::<Photon>() + size_of::<[f32; 3]>() + size_of::<DecodedPhoton>() + 8 + 6 + 2 + LIST_BYTES_PER_PHOTON;
+    let per_photon = size_of::<Photon>() + size_of::<[f32; 3]>() + size_of::<DecodedPhoton>() + 8 + 6 + 2 + LIST_BYTES_PER_PHOTON + MAX_CELLS_PER_PHOTON * size_of::<u32>();
     n.saturating_mul(per_photon as u64)
 }
 
@@ -110,8 +112,8 @@ mod tests {
 
     #[test]
     fn photon_map_counts_photons_and_nodes() {
-        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 148_000);
-        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 148_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Emitted(1000)), 180_000);
+        assert_eq!(photon_map_bytes(PhotonBudget::Stored(1000)), 180_000);
         // Absurd budgets saturate instead of wrapping to a small number.
         assert_eq!(photon_map_bytes(PhotonBudget::Emitted(u64::MAX)), u64::MAX);
     }
