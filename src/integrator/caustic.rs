@@ -762,4 +762,43 @@ mod tests {
         }
         assert!(first.photons == 20 && worst < 8.0, "the bound is {worst}× the estimate at worst");
     }
+
+    /// Where photons are sparse — fewer than k within `max_radius`, k or more in the occupancy grid's 3×3×3
+    /// cells — and no recent query lies near (a path's scattered later vertices), the photon counts bound
+    /// the estimate: where a bound is given it is never below the estimate made there (a diffuse receiver,
+    /// photons from all over the hemisphere, powers that differ), and most such points get one.
+    #[test]
+    fn the_counts_bound_the_estimate_where_photons_are_sparse() {
+        let m = 1000u64;
+        let mut s = Sampler::for_key(24, 0, 0);
+        let photons: Vec<Photon> = (0..m)
+            .map(|_| {
+                let u = s.next_2d();
+                let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
+                Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), w, Vec3::new(1.0, 0.5 + s.next_1d(), 0.2) / m as f32, 1.0)
+            })
+            .collect();
+        let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, None);
+        let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.1, 1.0);
+        let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
+        let (mut sparse, mut bounded) = (0, 0);
+        for i in 0..400 {
+            let u = s.next_2d();
+            let x = plane_point(Vec3::new(1.8 * u.x - 0.9, 1.8 * u.y - 0.9, 0.0));
+            if est.occupancy.as_ref().unwrap().photons_near(x.p).unwrap().fewer_than(20) {
+                continue;
+            }
+            sparse += 1;
+            // A fresh scratch: no recent query near.
+            let mut scratch = GatherScratch::default();
+            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut scratch);
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut scratch);
+            if let Some(c) = c {
+                bounded += 1;
+                assert!(g.photons < 20, "point {i}: a bound where {} photons were found", g.photons);
+                assert!(c >= g.l1.max_element() * (1.0 - 1e-5), "point {i} at {}: bound {c} below the estimate {}", x.p, g.l1);
+            }
+        }
+        assert!(sparse > 100 && 2 * bounded > sparse, "{bounded} of {sparse} sparse points bounded");
+    }
 }
