@@ -160,9 +160,10 @@ impl Q1Range {
 /// Roulette on the density estimate (method.md §3.1): T1 runs at `x` with probability
 /// `P = min(1, c/(κ·L))`, no lower than [`GATHER_MIN_PROBABILITY`], where `c` bounds what it can add and `L`
 /// is the largest channel of the radiance the eye sample has collected so far (`P = 1` while that is 0).
-/// κ = 1 kept 22 % of cornell-caustics' queries for +0.7 % RMSE per sample; κ = 10, +4 % (ARCHITECTURE.md,
-/// "Roulette on the density estimate").
-pub const GATHER_ROULETTE_KAPPA: f32 = 1.0;
+/// With the real bound, κ = 2 instead of 1 takes 18 % of cornell-caustics' queries and 16 % of
+/// teapot-glossy's away for +0.6 % and +0.4 % RMSE per sample; κ = 4, 25 % for +0.8 % and +1.2 %
+/// (ARCHITECTURE.md, "Roulette on the density estimate").
+pub const GATHER_ROULETTE_KAPPA: f32 = 2.0;
 
 /// The least probability with which T1 runs at a vertex whose cell holds photons (the largest factor
 /// `1/P` by which a run scales its estimate). The bound `c` already caps what a run adds at `κ·L`; the floor

@@ -108,9 +108,11 @@ fn glossy_mirror_mis_beats_pm() {
 /// RMSE(mis, pm) = 5.4·10⁻⁶ and 5.5·10⁻⁶ (seeds 2, 3) against RMSE(pm, reference) = 0.080 and 0.072,
 /// a ratio of 7·10⁻⁵, before the roulette on the density estimate (method.md §3.1): its probability follows
 /// the radiance a sample has collected, which the weights change a little, so a few coins fall differently
-/// in the two renders — measured 3.1·10⁻⁴ against pm's 0.0278 (1.1 %). Bounds: the images differ by < 3 %
-/// of pm's error (a weight that left 1 on these receivers would move whole caustics), and the two RMSEs by
-/// < 1 %.
+/// in the two renders — measured 3.1·10⁻⁴ against pm's 0.0278 (1.1 %) with κ = 1; 1.16·10⁻³ against 0.0292
+/// (4.0 %) with κ = 2 and the floor P_min = 0.03, which put more vertices below P = 1 (the RMSEs: 0.02917 and
+/// 0.02917). That difference is the coins' noise, zero in the mean. Bounds: the images differ by < 6 % of
+/// pm's error (a weight that left 1 on these receivers would hand whole caustics to T2, whose paths through
+/// the mirror to the small light are far noisier), and the two RMSEs by < 1 %.
 #[test]
 fn mirror_ceiling_mis_equals_pm() {
     let r = diffuse();
@@ -120,7 +122,7 @@ fn mirror_ceiling_mis_equals_pm() {
     let between = metrics(&r.mis.image, &r.pm.image, &region);
     eprintln!("mirror-ceiling RMSE: pm {:.5}, mis {:.5}, mis vs pm {:.3e}", pm.rmse, mis.rmse, between.rmse);
     assert!(r.mis.stats.photons_stored > 10_000, "too few caustic photons: {}", r.mis.stats.photons_stored);
-    assert!(between.rmse < 0.03 * pm.rmse, "mis differs from pm: {} vs pm's error {}", between.rmse, pm.rmse);
+    assert!(between.rmse < 0.06 * pm.rmse, "mis differs from pm: {} vs pm's error {}", between.rmse, pm.rmse);
     assert!(((mis.rmse - pm.rmse) / pm.rmse).abs() < 0.01, "RMSE mis {} vs pm {}", mis.rmse, pm.rmse);
     // Not trivially equal: T2 does contribute a little in mis.
     assert!(between.rmse > 0.0, "mis and pm images are bit-identical: the MIS weights never left 1");
