@@ -151,12 +151,6 @@ impl PhotonCounts {
     pub fn reach(&self) -> f32 {
         self.reach
     }
-
-    /// Heap memory held by the table, in bytes.
-    #[must_use]
-    pub fn memory_bytes(&self) -> usize {
-        self.sums.capacity() * std::mem::size_of::<u32>()
-    }
 }
 
 #[cfg(test)]
