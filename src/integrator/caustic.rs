@@ -364,13 +364,15 @@ impl<'a> CausticEstimator<'a> {
             let wi = Vec3::new(wi.x, wi.y, wi.z.abs().max(1e-3).copysign(wo_local.z)).normalize();
             bsdf.f_pdf(wo_local, wi, TransportMode::Radiance).0.max_element() * power / area
         };
+        // Where the search finds fewer than k photons, its area is that of max_radius.
+        let area_max = || self.estimate_area(self.max_radius * self.max_radius, si.p).1;
         let near = self.occupancy.as_ref().and_then(|grid| grid.photons_in(cell));
         if let Some(near) = near {
             if near.power == 0.0 {
                 return Some(0.0);
             }
             if near.fewer_than(self.knn) {
-                return Some(bound(near.power, near.dirs.min(), near.dirs.max(), self.estimate_area(self.max_radius * self.max_radius, si.p).1));
+                return Some(bound(near.power, near.dirs.min(), near.dirs.max(), area_max()));
             }
         }
         // The margins cover the rounding of the recent radii and distances (as the warm start's does).
@@ -395,7 +397,7 @@ impl<'a> CausticEstimator<'a> {
             if (n as usize) < self.knn {
                 let power = n as f32 * counts.max_power();
                 let (power, lo, hi) = near.map_or((power, Vec3::NEG_ONE, Vec3::ONE), |near| (power.min(near.power), near.dirs.min(), near.dirs.max()));
-                return Some(bound(power, lo, hi, self.estimate_area(self.max_radius * self.max_radius, si.p).1));
+                return Some(bound(power, lo, hi, area_max()));
             }
         }
         if !(r_lo > 0.0) {
@@ -643,6 +645,21 @@ mod tests {
         PhotonMap::new(KdTree::build(photons).unwrap(), m, None)
     }
 
+    /// `m` photons uniform on the square [−1, 1]² of the plane z = 0, arriving from cosine-distributed
+    /// directions over the upper hemisphere, each with power `power(s)/m`; all drawn from the stream keyed
+    /// by `key`, which is returned for the test's further draws.
+    fn hemisphere_plane_map(m: u64, key: u64, mut power: impl FnMut(&mut Sampler) -> Vec3) -> (PhotonMap, Sampler) {
+        let mut s = Sampler::for_key(key, 0, 0);
+        let photons: Vec<Photon> = (0..m)
+            .map(|_| {
+                let u = s.next_2d();
+                let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
+                Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), w, power(&mut s) / m as f32, 1.0)
+            })
+            .collect();
+        (PhotonMap::new(KdTree::build(photons).unwrap(), m, None), s)
+    }
+
     fn plane_point(p: Vec3) -> SurfaceInteraction {
         SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 }
     }
@@ -732,15 +749,7 @@ mod tests {
     #[test]
     fn the_bound_holds_where_k_photons_are_near() {
         let m = 20_000u64;
-        let mut s = Sampler::for_key(23, 0, 0);
-        let photons: Vec<Photon> = (0..m)
-            .map(|_| {
-                let u = s.next_2d();
-                let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
-                Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), w, Vec3::splat(1.0 / m as f32), 1.0)
-            })
-            .collect();
-        let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, None);
+        let (map, mut s) = hemisphere_plane_map(m, 23, |_| Vec3::ONE);
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.5, 1.0);
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
         let mut scratch = GatherScratch::default();
@@ -771,15 +780,7 @@ mod tests {
     #[test]
     fn the_counts_bound_the_estimate_where_photons_are_sparse() {
         let m = 1000u64;
-        let mut s = Sampler::for_key(24, 0, 0);
-        let photons: Vec<Photon> = (0..m)
-            .map(|_| {
-                let u = s.next_2d();
-                let w = crate::sampling::warp::square_to_cosine_hemisphere(s.next_2d());
-                Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), w, Vec3::new(1.0, 0.5 + s.next_1d(), 0.2) / m as f32, 1.0)
-            })
-            .collect();
-        let map = PhotonMap::new(KdTree::build(photons).unwrap(), m, None);
+        let (map, mut s) = hemisphere_plane_map(m, 24, |s| Vec3::new(1.0, 0.5 + s.next_1d(), 0.2));
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.1, 1.0);
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
         let (mut sparse, mut bounded) = (0, 0);

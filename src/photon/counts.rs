@@ -82,27 +82,14 @@ impl PhotonCounts {
             let [x, y, z] = [0, 1, 2].map(|a| (c[a] as usize).min(dims[a] - 1) + 1);
             sums[z * sy + y * sx + x] += 1;
         }
-        for z in 1..=dz {
-            for y in 1..=dy {
-                for x in 1..=dx {
-                    let i = z * sy + y * sx + x;
-                    sums[i] = sums[i].wrapping_add(sums[i - 1]);
-                }
-            }
-        }
-        for z in 1..=dz {
-            for y in 1..=dy {
-                for x in 1..=dx {
-                    let i = z * sy + y * sx + x;
-                    sums[i] = sums[i].wrapping_add(sums[i - sx]);
-                }
-            }
-        }
-        for z in 1..=dz {
-            for y in 1..=dy {
-                for x in 1..=dx {
-                    let i = z * sy + y * sx + x;
-                    sums[i] = sums[i].wrapping_add(sums[i - sy]);
+        // Along x, then y, then z: the step back to the previous cell along that axis.
+        for stride in [1, sx, sy] {
+            for z in 1..=dz {
+                for y in 1..=dy {
+                    for x in 1..=dx {
+                        let i = z * sy + y * sx + x;
+                        sums[i] = sums[i].wrapping_add(sums[i - stride]);
+                    }
                 }
             }
         }
