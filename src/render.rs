@@ -325,13 +325,9 @@ pub fn render_share(
             stats.rays_traced += ps.rays;
             map = (ps.emitted > 0).then_some(m);
         }
-        let tracer = PathTracer {
-            scene,
-            accel,
-            caustics: CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
-                .with_area_scale(area_scale_for_pass(pass)),
-            alpha: this_pass as f32,
-        };
+        let caustics = CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
+            .with_area_scale(area_scale_for_pass(pass));
+        let tracer = PathTracer::new(scene, accel, caustics, this_pass as f32);
         // With a time limit the eye pass stops at the limit, from the second pass on (the first always
         // completes, so that every pixel has samples): tiles not started by then are left out.
         let deadline = match settings.time_limit {

@@ -2,6 +2,7 @@
 //! surface (+z; `twosided` mirrors the rest), sampled with the cosine-weighted hemisphere (pdf `cos θi/π`),
 //! so the sample weight is `R`.
 
+use super::BsdfSample;
 use crate::math::{Vec2, Vec3};
 use crate::sampling::warp::square_to_cosine_hemisphere;
 use std::f32::consts::FRAC_1_PI;
@@ -28,10 +29,20 @@ pub(super) fn pdf_w(wo: Vec3, wi: Vec3) -> f32 {
 
 /// A cosine-weighted direction above the surface (Malley's method); `None` for `wo` below.
 #[must_use]
-pub(super) fn sample_wi(wo: Vec3, u_dir: Vec2) -> Option<Vec3> {
+fn sample_wi(wo: Vec3, u_dir: Vec2) -> Option<Vec3> {
     if wo.z <= 0.0 {
         return None;
     }
     let wi = square_to_cosine_hemisphere(u_dir);
     (wi.z != 0.0).then_some(wi)
+}
+
+/// The whole sample: a cosine-weighted `wi` ([`sample_wi`]), its pdf from [`pdf_w`] (the one rule, so MIS
+/// weights from either side agree bit for bit), and the weight `f·cos θi / pdf_w = R` written as its exact
+/// value instead of through the quotient.
+#[must_use]
+pub(super) fn sample(reflectance: Vec3, wo: Vec3, u_dir: Vec2) -> Option<BsdfSample> {
+    let wi = sample_wi(wo, u_dir)?;
+    let pdf_w = pdf_w(wo, wi);
+    (pdf_w > 0.0).then_some(BsdfSample { wi_local: wi, weight: reflectance, pdf_w, delta: false })
 }

@@ -181,7 +181,7 @@ impl Bsdf {
             return None;
         }
         let s = match self {
-            Bsdf::Diffuse { .. } => self.non_delta_sample(wo_local, diffuse::sample_wi(wo_local, u_dir)?, mode),
+            Bsdf::Diffuse { reflectance } => diffuse::sample(*reflectance, wo_local, u_dir),
             Bsdf::Conductor {
                 specular_reflectance,
                 eta_k,
@@ -199,6 +199,18 @@ impl Bsdf {
         debug_assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0, "bad BSDF weight {s:?}");
         debug_assert!(s.pdf_w > 0.0 && s.pdf_w.is_finite(), "bad BSDF pdf {s:?}");
         Some(s)
+    }
+
+    /// Whether [`Bsdf::sample`] reads `u_lobe`: a choice between lobes (a dielectric's reflection or
+    /// refraction, a blend's component). Where it does not, the caller may pass any value and spare the
+    /// sampler a dimension (the path tracer does).
+    #[must_use]
+    pub fn chooses_lobe(&self) -> bool {
+        match self {
+            Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::RoughConductor { .. } => false,
+            Bsdf::Dielectric { .. } | Bsdf::Blend { .. } => true,
+            Bsdf::TwoSided(inner) => inner.chooses_lobe(),
+        }
     }
 
     /// Any delta lobe that can be sampled (Conductor, Dielectric, or a blend with one at non-zero weight).

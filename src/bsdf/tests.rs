@@ -445,6 +445,36 @@ fn delta_flags() {
     assert!(blend(1.0, diffuse(1.0), mirror()).has_delta());
 }
 
+/// `chooses_lobe` is false exactly where `sample` ignores `u_lobe` (the path tracer then spares the sampler a
+/// dimension): the same sample for any `u_lobe` there, and some `u_lobe` that changes the sample elsewhere.
+#[test]
+fn chooses_lobe_exactly_where_u_lobe_is_read() {
+    let dielectric = Bsdf::Dielectric { eta: 1.5 };
+    let cases = [
+        (diffuse(0.8), false),
+        (two(diffuse(0.8)), false),
+        (rough(0.2, None), false),
+        (two(rough(0.2, None)), false),
+        (mirror(), false),
+        (dielectric.clone(), true),
+        (blend(0.5, diffuse(1.0), mirror()), true),
+        (two(blend(0.5, diffuse(1.0), rough(0.3, None))), true),
+    ];
+    let key = |s: Option<BsdfSample>| s.map(|s| (s.wi_local, s.weight, s.pdf_w, s.delta));
+    for (bsdf, chooses) in cases {
+        assert_eq!(bsdf.chooses_lobe(), chooses, "{bsdf:?}");
+        let mut sampler = Sampler::for_key(7, 0, 0);
+        let mut read = false;
+        for _ in 0..200 {
+            let (wo, u_dir) = (wo_at(10.0 + 70.0 * sampler.next_1d()), sampler.next_2d());
+            let wo = if sampler.next_1d() < 0.5 { wo } else { Vec3::new(wo.x, wo.y, -wo.z) };
+            let first = key(bsdf.sample(wo, 0.0, u_dir, TransportMode::Radiance));
+            read |= [0.3, 0.6, 0.97].iter().any(|&u| key(bsdf.sample(wo, u, u_dir, TransportMode::Radiance)) != first);
+        }
+        assert_eq!(read, chooses, "{bsdf:?}: u_lobe read {read}");
+    }
+}
+
 #[test]
 fn never_nan_at_grazing_or_degenerate_input() {
     let mut zoo = non_delta_zoo();

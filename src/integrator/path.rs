@@ -47,16 +47,37 @@ enum Vertex {
     NonDelta { p: Vec3, pdf_w: f32 },
 }
 
+/// What every vertex asks of its material, answered once per pass (the BSDF methods recurse through
+/// `twosided` and blends).
+#[derive(Clone, Copy, Debug)]
+struct MaterialUse {
+    /// [`Bsdf::has_non_delta`](crate::bsdf::Bsdf::has_non_delta): NEE and the density estimate run here.
+    non_delta: bool,
+    /// [`Bsdf::chooses_lobe`](crate::bsdf::Bsdf::chooses_lobe): BSDF sampling takes a dimension for `u_lobe`.
+    chooses_lobe: bool,
+}
+
 /// The path tracer for one render pass. Immutable and shared by all worker threads.
 pub struct PathTracer<'a> {
-    pub scene: &'a Scene,
-    pub accel: &'a dyn Accel,
-    pub caustics: CausticEstimator<'a>,
+    scene: &'a Scene,
+    accel: &'a dyn Accel,
+    caustics: CausticEstimator<'a>,
     /// Eye samples per pixel that share this pass's photon map (α of paper eq. 2).
-    pub alpha: f32,
+    alpha: f32,
+    /// Per entry of `scene.bsdfs`.
+    materials: Vec<MaterialUse>,
+    /// More than one light: NEE takes a dimension to choose one.
+    chooses_light: bool,
 }
 
 impl<'a> PathTracer<'a> {
+    /// The tracer of a pass whose eye samples per pixel are `alpha`, with the caustic estimator `caustics`.
+    #[must_use]
+    pub fn new(scene: &'a Scene, accel: &'a dyn Accel, caustics: CausticEstimator<'a>, alpha: f32) -> Self {
+        let materials = scene.bsdfs.iter().map(|b| MaterialUse { non_delta: b.has_non_delta(), chooses_lobe: b.chooses_lobe() }).collect();
+        Self { scene, accel, caustics, alpha, materials, chooses_light: scene.lights.lights().len() > 1 }
+    }
+
     /// Longest path in segments, or `u32::MAX` for unlimited.
     fn max_depth(&self) -> u32 {
         u32::try_from(self.scene.integrator.max_depth).unwrap_or(u32::MAX)
@@ -147,12 +168,14 @@ impl<'a> PathTracer<'a> {
             }
 
             let bsdf = &scene.bsdfs[si.material as usize];
+            let material = self.materials[si.material as usize];
             let wo_local = si.frame.to_local(wo_world);
-            let non_delta = bsdf.has_non_delta();
+            let non_delta = material.non_delta;
 
-            // Next-event estimation (direct light L x), MIS with BSDF sampling.
+            // Next-event estimation (direct light L x), MIS with BSDF sampling. Choosing among lights and
+            // lobes takes a dimension only where there is a choice (any value selects the one light).
             if non_delta && !lights.is_empty() {
-                let u_sel = sampler.next_1d();
+                let u_sel = if self.chooses_light { sampler.next_1d() } else { 0.0 };
                 let u_li = sampler.next_2d();
                 if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
                     let wi_local = si.frame.to_local(ls.wi_world);
@@ -193,7 +216,7 @@ impl<'a> PathTracer<'a> {
             }
 
             // Continue the path by BSDF sampling.
-            let u_lobe = sampler.next_1d();
+            let u_lobe = if material.chooses_lobe { sampler.next_1d() } else { 0.0 };
             let u_dir = sampler.next_2d();
             let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir, TransportMode::Radiance) else { break };
             if bs.weight == Vec3::ZERO {
