@@ -24,6 +24,9 @@ pub struct AreaLight {
     /// Triangle selection ∝ area; `None` if the total area is 0.
     distribution: Option<Distribution1D>,
     area: f32,
+    /// Density of a sampled point per unit area: `1/A` (triangle ∝ area, then uniform on it); 0 when
+    /// nothing can be sampled (no distribution).
+    pdf_a: f32,
 }
 
 /// Solid-angle density at `p_ref` of a point `p_light` (unit normal `n_light`) sampled with area density
@@ -33,11 +36,16 @@ pub struct AreaLight {
 fn pdf_w_from_area(pdf_a: f32, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
     let d = p_ref - p_light;
     let dist2 = d.length_squared();
-    if !(dist2 > 0.0 && dist2.is_finite()) {
-        return 0.0;
-    }
-    let cos_l = n_light.dot(d) / dist2.sqrt();
-    if cos_l.is_nan() || cos_l <= 0.0 {
+    pdf_w_from_parts(pdf_a, dist2, n_light.dot(d) / dist2.sqrt())
+}
+
+/// [`pdf_w_from_area`] from the squared distance `dist2` and `cos_l = cos θ_l` (the cosine at the light,
+/// positive on its emitting side), for a caller that has them: 0 unless `dist2` is positive and finite and
+/// `cos_l > 0`.
+#[inline]
+#[must_use]
+fn pdf_w_from_parts(pdf_a: f32, dist2: f32, cos_l: f32) -> f32 {
+    if !(dist2 > 0.0 && dist2.is_finite()) || cos_l.is_nan() || cos_l <= 0.0 {
         return 0.0;
     }
     pdf_a * dist2 / cos_l
@@ -59,11 +67,13 @@ impl AreaLight {
             .collect();
         let area = areas.iter().map(|&a| f64::from(a)).sum::<f64>() as f32;
         let distribution = Distribution1D::new(&areas);
+        let pdf_a = if distribution.is_some() { 1.0 / area } else { 0.0 };
         Self {
             radiance,
             triangles,
             distribution,
             area,
+            pdf_a,
         }
     }
 
@@ -100,15 +110,6 @@ impl AreaLight {
         }
     }
 
-    /// Density of the sampled point per unit area: `1/A` (triangle ∝ area, then uniform on it).
-    #[must_use]
-    fn pdf_a(&self) -> f32 {
-        if self.distribution.is_some() {
-            1.0 / self.area
-        } else {
-            0.0
-        }
-    }
 
     /// A uniform point on triangle `i`: (triangle, point, barycentrics).
     fn point_on(&self, i: usize, u_pos: Vec2) -> (&LightTriangle, Vec3, [f32; 3]) {
@@ -124,14 +125,17 @@ impl AreaLight {
     pub fn sample_li(&self, p_ref: Vec3, u: Vec2) -> Option<LightSample> {
         let (i, _, u_rest) = self.distribution.as_ref()?.sample_discrete(u.x);
         let (t, p_light, _) = self.point_on(i, Vec2::new(u_rest, u.y));
-        let pdf_w = self.pdf_li(p_ref, p_light, t.n);
+        // One square root and one division serve the direction, the distance and the pdf's cosine.
+        let d = p_light - p_ref;
+        let dist2 = d.length_squared();
+        let dist = dist2.sqrt();
+        let wi_world = d * (1.0 / dist);
+        let pdf_w = pdf_w_from_parts(self.pdf_a, dist2, -t.n.dot(wi_world));
         if !(pdf_w > 0.0 && pdf_w.is_finite()) {
             return None;
         }
-        let d = p_light - p_ref;
-        let dist = d.length();
         Some(LightSample {
-            wi_world: d / dist,
+            wi_world,
             dist,
             li: self.radiance,
             pdf_w,
@@ -145,7 +149,7 @@ impl AreaLight {
     /// of unit geometric normal `n_light` (0 from behind).
     #[must_use]
     pub fn pdf_li(&self, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
-        pdf_w_from_area(self.pdf_a(), p_ref, p_light, n_light)
+        pdf_w_from_area(self.pdf_a, p_ref, p_light, n_light)
     }
 
     /// Photon emission (method.md §2): triangle ∝ area (`u_tri`), point uniform on it (`u_pos`), direction
@@ -178,7 +182,7 @@ impl AreaLight {
             n: t.n,
             dir,
             le: self.radiance,
-            pdf_a: self.pdf_a(),
+            pdf_a: self.pdf_a,
             pdf_w_dir,
         })
     }

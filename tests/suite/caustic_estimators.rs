@@ -140,15 +140,18 @@ fn region_ratio(img: &Image, reference: &Image, region: &Region) -> f64 {
 /// - glossy-mirror, region = the highlight (x 40–60 %, y 50–90 %): pt σ ≈ 0.01 → ±0.04; mis σ ≈ 0.044 →
 ///   ±0.13; pm σ ≈ 0.09 → ±0.27. pm's kernel bias is not resolvable here (mean of three seeds 1.063,
 ///   within its σ/√3 = 0.05 of 1 by 1.2 σ); it is dominated by the photon blotches.
-/// - mirror-ceiling, region = the floor in front (x 30–70 %, y 70–100 %): pt ±0.03 (σ ≈ 0.005 plus the
-///   reference's own noise); pm and mis ±0.05: measured +0.4 % and +2.0 % (red channel, seeds 2, 3;
+/// - mirror-ceiling, region = the floor in front (x 30–70 %, y 70–100 %): pt ±0.09: σ = 0.030 over seeds
+///   2–45 (the CLI's region bias, 16 spp; mean +0.6 %, within σ/√44 of 0), for the same code with the
+///   sampler's dimensions in another order σ = 0.032 (mean +0.2 %): pt finds this caustic only through the
+///   mirror to the small light, and a bound of ±0.03 had held for seed 3 by luck; pm and mis ±0.05:
+///   measured +0.4 % and +2.0 % (red channel, seeds 2, 3;
 ///   luminance +1.8 % for seed 3), i.e. a kernel bias of ≈ +1 % (k = 50 neighbours over a smoothly
 ///   varying caustic) plus noise.
 #[test]
 fn caustic_region_means_agree_with_the_reference() {
     for (r, name, spec, tol) in [
         (glossy(), "glossy-mirror", "highlight=40%,50%,60%,90%", [0.04, 0.27, 0.13]),
-        (diffuse(), "mirror-ceiling", "floor=30%,70%,70%,100%", [0.03, 0.05, 0.05]),
+        (diffuse(), "mirror-ceiling", "floor=30%,70%,70%,100%", [0.09, 0.05, 0.05]),
     ] {
         let region = Region::parse(spec, r.reference.width(), r.reference.height()).unwrap();
         for ((img, est), tol) in [(&r.pt.image, "pt"), (&r.pm.image, "pm"), (&r.mis.image, "mis")].into_iter().zip(tol) {
