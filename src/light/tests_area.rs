@@ -257,6 +257,23 @@ fn light_set_nee_estimates_irradiance_from_all_lights() {
     assert_within_5_sigma("irradiance", &m, reference, 1e-4 * reference);
 }
 
+/// With one light the choice reads nothing of `u_select` (the path tracer then draws no dimension for it):
+/// the same sample for any value.
+#[test]
+fn one_light_ignores_the_selection_number() {
+    let set = LightSet::new(vec![Light::Area(quad_light(Vec3::new(1.0, 2.0, 0.5)))], 20, scene_bounds());
+    let key = |s: Option<(usize, LightSample)>| s.map(|(i, ls)| (i, ls.wi_world, ls.dist, ls.li, ls.pdf_w, ls.p_light));
+    let mut sampler = Sampler::for_key(29, 0, 0);
+    for _ in 0..1000 {
+        let (p_ref, u) = (Vec3::new(sampler.next_1d() - 0.5, -0.5, sampler.next_1d() - 0.5), sampler.next_2d());
+        let first = key(set.sample_li(p_ref, 0.0, u));
+        assert!(first.is_some());
+        for u_select in [0.3, 0.999] {
+            assert_eq!(key(set.sample_li(p_ref, u_select, u)), first);
+        }
+    }
+}
+
 #[test]
 fn prim_table_and_area_emission() {
     let set = mixed_set();
