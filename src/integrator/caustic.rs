@@ -30,7 +30,7 @@
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::Vec3;
 use crate::photon::KnnResult;
-use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonCounts, PhotonEmission, PhotonMap};
+use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonCounts, PhotonsNear, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
 
@@ -85,8 +85,8 @@ pub struct GatherScratch {
 }
 
 /// A non-delta eye vertex as the caustic estimators see it, made once per vertex
-/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, and the occupancy
-/// grid's cell at `x`, which the roulette's bound and the search both read.
+/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, the occupancy grid's
+/// cell at `x`, which the roulette's bound and the search both read, and that cell's photon sums.
 #[derive(Clone, Copy, Debug)]
 pub struct Receiver<'s> {
     pub si: &'s SurfaceInteraction,
@@ -95,6 +95,11 @@ pub struct Receiver<'s> {
     /// `si.frame.to_local(wo_world)`.
     pub wo_local: Vec3,
     cell: CellAt,
+    /// `OccupancyGrid::photons_in(cell)`, read when the receiver is made. The path tracer makes it before
+    /// the vertex's shadow ray, so that the two dependent cache misses of the look-up (the grid's bits, then
+    /// the cell's sums) overlap the ray's traversal instead of stalling the roulette's bound (perf: half of
+    /// `estimate_bound`'s time was the wait on the sums).
+    near: Option<PhotonsNear>,
 }
 
 /// The photons of the kd-tree's leaves within `radius` of `p` ([`crate::photon::KdTree::bound_within`]):
@@ -314,7 +319,8 @@ impl<'a> CausticEstimator<'a> {
         debug_assert!(wo_local.distance(si.frame.to_local(wo_world)) <= 1e-5, "wo_local is not wo_world in the shading frame");
         // Without a grid the search starts from the root and no bound reads the cell.
         let cell = self.occupancy.as_ref().map_or(CellAt::NotFinite, |grid| grid.cell_at(si.p));
-        Receiver { si, bsdf, wo_world, wo_local, cell }
+        let near = self.occupancy.as_ref().and_then(|grid| grid.photons_in(cell));
+        Receiver { si, bsdf, wo_world, wo_local, cell, near }
     }
 
     /// The probability with which T1 runs at `x` (method.md §3.1): `P = min(1, max(β)·c/(κ·L))`, at least
@@ -352,7 +358,7 @@ impl<'a> CausticEstimator<'a> {
     #[must_use]
     pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch) -> Option<f32> {
         let map = self.map?;
-        let Receiver { si, bsdf, wo_world, wo_local, cell } = *rx;
+        let Receiver { si, bsdf, wo_world, wo_local, near, .. } = *rx;
         let mirror = si.frame.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z));
         // f toward the point of a box of directions nearest the mirror direction, put on ωₒ's side (the
         // non-delta lobes reflect), times the power, over the area.
@@ -366,7 +372,6 @@ impl<'a> CausticEstimator<'a> {
         };
         // Where the search finds fewer than k photons, its area is that of max_radius.
         let area_max = || self.estimate_area(self.max_radius * self.max_radius, si.p).1;
-        let near = self.occupancy.as_ref().and_then(|grid| grid.photons_in(cell));
         if let Some(near) = near {
             if near.power == 0.0 {
                 return Some(0.0);
@@ -411,7 +416,7 @@ impl<'a> CausticEstimator<'a> {
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch) -> Gather {
-        let Receiver { si, bsdf, wo_world, wo_local, cell } = *rx;
+        let Receiver { si, bsdf, wo_world, wo_local, cell, .. } = *rx;
         let GatherScratch { knn, batch, .. } = scratch;
         let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), knn);
         let (Some(map), Some(r2)) = (self.map, searched) else {

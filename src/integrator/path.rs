@@ -171,6 +171,9 @@ impl<'a> PathTracer<'a> {
             let material = self.materials[si.material as usize];
             let wo_local = si.frame.to_local(wo_world);
             let non_delta = material.non_delta;
+            // The caustic estimators' view of this vertex, made before the shadow ray: its grid look-up's
+            // cache misses then overlap the ray (`caustic::Receiver`).
+            let receiver = (non_delta && self.caustics.active()).then(|| self.caustics.receiver(&si, bsdf, wo_world, wo_local));
 
             // Next-event estimation (direct light L x), MIS with BSDF sampling. Choosing among lights and
             // lobes takes a dimension only where there is a choice (any value selects the one light).
@@ -198,11 +201,10 @@ impl<'a> PathTracer<'a> {
             // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs.
             let mut area = None;
             let alpha = if first_non_delta { self.alpha } else { 1.0 };
-            if non_delta && self.caustics.active() {
-                let rx = self.caustics.receiver(&si, bsdf, wo_world, wo_local);
-                let p_gather = self.caustics.gather_probability(&rx, beta, l.max(pixel_mean), scratch);
+            if let Some(rx) = &receiver {
+                let p_gather = self.caustics.gather_probability(rx, beta, l.max(pixel_mean), scratch);
                 if p_gather >= 1.0 || sampler.next_1d() < p_gather {
-                    let g = self.caustics.gather(&rx, alpha, scratch);
+                    let g = self.caustics.gather(rx, alpha, scratch);
                     stats.knn_queries += 1;
                     stats.q1.merge(&g.q1);
                     l += beta * g.l1 / p_gather;
