@@ -66,8 +66,6 @@ pub struct PathTracer<'a> {
     alpha: f32,
     /// Per entry of `scene.bsdfs`.
     materials: Vec<MaterialUse>,
-    /// More than one light: NEE takes a dimension to choose one.
-    chooses_light: bool,
 }
 
 impl<'a> PathTracer<'a> {
@@ -75,7 +73,7 @@ impl<'a> PathTracer<'a> {
     #[must_use]
     pub fn new(scene: &'a Scene, accel: &'a dyn Accel, caustics: CausticEstimator<'a>, alpha: f32) -> Self {
         let materials = scene.bsdfs.iter().map(|b| MaterialUse { non_delta: b.has_non_delta(), chooses_lobe: b.chooses_lobe() }).collect();
-        Self { scene, accel, caustics, alpha, materials, chooses_light: scene.lights.lights().len() > 1 }
+        Self { scene, accel, caustics, alpha, materials }
     }
 
     /// Longest path in segments, or `u32::MAX` for unlimited.
@@ -176,9 +174,10 @@ impl<'a> PathTracer<'a> {
             let receiver = (non_delta && self.caustics.active()).then(|| self.caustics.receiver(&si, bsdf, wo_world, wo_local));
 
             // Next-event estimation (direct light L x), MIS with BSDF sampling. Choosing among lights and
-            // lobes takes a dimension only where there is a choice (any value selects the one light).
+            // lobes takes a dimension only where there is a choice (`LightSet::chooses_light`,
+            // `Bsdf::chooses_lobe`).
             if non_delta && !lights.is_empty() {
-                let u_sel = if self.chooses_light { sampler.next_1d() } else { 0.0 };
+                let u_sel = if lights.chooses_light() { sampler.next_1d() } else { 0.0 };
                 let u_li = sampler.next_2d();
                 if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
                     let wi_local = si.frame.to_local(ls.wi_world);

@@ -110,7 +110,6 @@ impl AreaLight {
         }
     }
 
-
     /// A uniform point on triangle `i`: (triangle, point, barycentrics).
     fn point_on(&self, i: usize, u_pos: Vec2) -> (&LightTriangle, Vec3, [f32; 3]) {
         let t = &self.triangles[i];

@@ -93,6 +93,13 @@ impl LightSet {
         &self.lights
     }
 
+    /// Whether [`LightSet::sample_li`] reads `u_select`: only with more than one light (with one, any value
+    /// selects it), so a caller may spare the sampler that dimension otherwise.
+    #[must_use]
+    pub fn chooses_light(&self) -> bool {
+        self.lights.len() > 1
+    }
+
     /// Power Φ of light `index` (luminance, 0 for an unknown index).
     #[must_use]
     pub fn power(&self, index: usize) -> f32 {

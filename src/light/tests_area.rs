@@ -262,6 +262,7 @@ fn light_set_nee_estimates_irradiance_from_all_lights() {
 #[test]
 fn one_light_ignores_the_selection_number() {
     let set = LightSet::new(vec![Light::Area(quad_light(Vec3::new(1.0, 2.0, 0.5)))], 20, scene_bounds());
+    assert!(!set.chooses_light() && mixed_set().chooses_light());
     let key = |s: Option<(usize, LightSample)>| s.map(|(i, ls)| (i, ls.wi_world, ls.dist, ls.li, ls.pdf_w, ls.p_light));
     let mut sampler = Sampler::for_key(29, 0, 0);
     for _ in 0..1000 {

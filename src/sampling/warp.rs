@@ -28,8 +28,9 @@ fn azimuth_fraction(y: f32, x: f32) -> f32 {
 
 /// `(sin x, cos x)` for `|x| ≤ π/4`, the range the concentric map needs, by their Taylor series to x⁹ and
 /// x¹⁰ in Horner form: the truncation error is below x¹¹/11! ≈ 1.7·10⁻⁹ and x¹²/12! ≈ 1.1·10⁻¹⁰ there, so
-/// the result is within f32 rounding of the true values (`sin_cos_quarter_is_accurate`). Inlined, it costs
-/// a tenth of the libm call with its general range reduction, which showed as 2 % of a path-traced sample.
+/// the result is within f32 rounding of the true values (`sin_cos_quarter_is_accurate`). It replaces libm's
+/// `sincosf` (its general range reduction and a call), which perf put at 1.8 % of a path-traced sample;
+/// callgrind counted −0.8 % of the path tracer's instructions outside Embree (cornell mesh scene).
 #[inline]
 fn sin_cos_quarter(x: f32) -> (f32, f32) {
     debug_assert!(x.abs() <= FRAC_PI_4 * (1.0 + 1e-6), "sin_cos_quarter({x}) outside [-π/4, π/4]");
