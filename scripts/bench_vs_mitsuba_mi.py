@@ -1,12 +1,15 @@
-"""Mitsuba 3 side of scripts/bench-vs-mitsuba: renders scenes/cornell-caustics.toml's scene (the numbers of
-scenes/reference/cornell-caustics/README.md) with the two spheres loaded from the PLY files that caustica's own
-sphere generator wrote, so that both renderers trace identical triangles.
+"""Mitsuba 3 side of scripts/bench-vs-mitsuba and scripts/make-caustic-reference: renders
+scenes/cornell-caustics.toml's scene (the numbers of scenes/reference/cornell-caustics/README.md), its two
+spheres analytic, or with --ply loaded from the PLY files that caustica's own sphere generator wrote, so that
+both renderers trace identical triangles.
 
-  python bench_vs_mitsuba_mi.py MIRROR.ply GLASS.ply OUT.exr --spp N --threads T [--seconds S] [--pass-spp P]
-                                 [--sampler TYPE]
+  python bench_vs_mitsuba_mi.py OUT.exr [--ply MIRROR.ply GLASS.ply] --spp N --threads T [--seconds S]
+                                 [--pass-spp P] [--sampler TYPE] [--crop X Y W H]
 
 --sampler: Mitsuba's sampler plugin (default `independent`, its default; `ldsampler`, `multijitter`, ... for a
 stratified one like caustica's own).
+--crop: render only the W×H pixels from (X, Y) of the 256×256 film (hdrfilm's crop window: the same pixels,
+sample positions and values as in the full image); OUT is W×H.
 
 Renders passes of P spp (distinct seeds) after one untimed pass that compiles the kernel: until N spp with
 --spp N, or until S seconds are spent with --seconds S; the image is the passes' mean.
@@ -23,10 +26,18 @@ mi.set_variant("llvm_ad_rgb")
 T = mi.ScalarTransform4f
 
 
-def scene_dict(mirror_ply, glass_ply, width, height, sampler):
+def scene_dict(ply, width, height, sampler, crop):
     def diffuse(rgb):
         return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}}
 
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb"}
+    if crop is not None:
+        film.update(crop_offset_x=crop[0], crop_offset_y=crop[1], crop_width=crop[2], crop_height=crop[3])
+    if ply is None:
+        mirror = {"type": "sphere", "center": [-0.45, -0.65, -0.3], "radius": 0.35}
+        glass = {"type": "sphere", "center": [0.4, -0.35, 0.25], "radius": 0.3}
+    else:
+        mirror, glass = {"type": "ply", "filename": ply[0]}, {"type": "ply", "filename": ply[1]}
     white, red, green = diffuse([0.8, 0.8, 0.8]), diffuse([0.8, 0.1, 0.1]), diffuse([0.1, 0.8, 0.1])
     return {
         "type": "scene",
@@ -37,8 +48,7 @@ def scene_dict(mirror_ply, glass_ply, width, height, sampler):
             "fov_axis": "smaller",
             "to_world": T().look_at(origin=[0, 0, 3.9], target=[0, 0, 0], up=[0, 1, 0]),
             "sampler": {"type": sampler},
-            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"},
-                     "pixel_format": "rgb"},
+            "film": film,
         },
         "floor": {"type": "rectangle", "to_world": T().translate([0, -1, 0]) @ T().rotate([1, 0, 0], -90), "bsdf": white},
         "ceiling": {"type": "rectangle", "to_world": T().translate([0, 1, 0]) @ T().rotate([1, 0, 0], 90), "bsdf": white},
@@ -51,16 +61,16 @@ def scene_dict(mirror_ply, glass_ply, width, height, sampler):
             "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}},
             "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [15, 15, 15]}},
         },
-        "mirror": {"type": "ply", "filename": mirror_ply, "bsdf": {"type": "conductor", "material": "none"}},
-        "glass": {"type": "ply", "filename": glass_ply, "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
+        "mirror": {**mirror, "bsdf": {"type": "conductor", "material": "none"}},
+        "glass": {**glass, "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
     }
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("mirror_ply")
-    ap.add_argument("glass_ply")
     ap.add_argument("out")
+    ap.add_argument("--ply", nargs=2, metavar=("MIRROR", "GLASS"))
+    ap.add_argument("--crop", nargs=4, type=int, metavar=("X", "Y", "W", "H"))
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--seconds", type=float)
     ap.add_argument("--pass-spp", type=int, default=32)
@@ -78,7 +88,7 @@ def main():
             n *= 4
         a.pass_spp = n
     dr.set_thread_count(a.threads)
-    scene = mi.load_dict(scene_dict(a.mirror_ply, a.glass_ply, a.width, a.height, a.sampler))
+    scene = mi.load_dict(scene_dict(a.ply, a.width, a.height, a.sampler, a.crop))
 
     def render(spp, seed):
         img = mi.render(scene, spp=spp, seed=seed)
@@ -99,7 +109,7 @@ def main():
         seed += 1
     img = acc * (a.pass_spp / spp)
     mi.Bitmap(img).write(a.out)
-    samples = spp * a.width * a.height
+    samples = spp * (a.crop[2] * a.crop[3] if a.crop else a.width * a.height)
     print(json.dumps({"samples": samples, "spp": spp, "seconds": seconds, "samples_per_second": samples / seconds}))
 
 
