@@ -12,7 +12,8 @@ stratified one like caustica's own).
 sample positions and values as in the full image); OUT is W×H.
 
 Renders passes of P spp (distinct seeds) after one untimed pass that compiles the kernel: until N spp with
---spp N, or until S seconds are spent with --seconds S; the image is the passes' mean.
+--spp N, or with --seconds S as many as fit in S seconds (a pass that would end after S at the rate measured
+so far is not started); the image is the passes' mean.
 Prints one JSON line: samples, seconds (rendering only, as caustica's seconds_render), samples_per_second.
 """
 import argparse
@@ -100,7 +101,14 @@ def main():
     # kernel, so every pass reuses the kernel the untimed warm-up pass compiled); the image is their mean.
     render(a.pass_spp, a.seed + 100_000)
     acc, spp, seconds, seed = None, 0, 0.0, a.seed
-    while (seconds < a.seconds) if a.seconds is not None else (spp < a.spp):
+    while True:
+        if a.seconds is None:
+            if spp >= a.spp:
+                break
+        elif spp > 0 and seconds * (spp + a.pass_spp) / spp > a.seconds:
+            # The next pass would end after the limit at the rate measured so far: stop, so that Mitsuba
+            # renders at most --seconds, as caustica's --time-limit does.
+            break
         t0 = time.perf_counter()
         img = render(a.pass_spp, seed)
         seconds += time.perf_counter() - t0
