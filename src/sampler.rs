@@ -183,8 +183,9 @@ impl Sampler {
     /// photon a hash of the stream's key, the dimension and the point's index, not a stratified coordinate
     /// (otherwise `next_1d`). For a decision whose probability depends on the stream's other samples: the
     /// gather's roulette reads the pixel's earlier samples (method.md §3.1), and a stratified dimension is
-    /// anti-correlated across a pixel's samples, so `u < p` would not have probability `p` given them
-    /// (measured: the cornell ceiling +7.5 % in `pm` with 4-spp passes).
+    /// anti-correlated across a pixel's samples, so `u < p` need not have probability `p` given them. Such
+    /// a number must also be drawn whether it decides anything or not: a draw that depends on other samples
+    /// shifts this sample's later dimensions (the cause of a measured +7.5 % on the cornell ceiling).
     #[inline]
     pub fn next_independent_1d(&mut self) -> f32 {
         let h = self.next_hash();
