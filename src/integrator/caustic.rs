@@ -62,18 +62,22 @@ const BATCH: usize = 64;
 struct GatherBatch {
     wi: [[f32; BATCH]; 3],
     f: [[f32; BATCH]; 3],
+    /// The BSDF's pdfs, then (`mis`) the photons' q₂.
     pdf: [f32; BATCH],
     index: [u32; BATCH],
+    /// `mis`: the photons' q₁ and their weights w₁.
+    q1: [f32; BATCH],
+    w1: [f32; BATCH],
 }
 
 impl Default for GatherBatch {
     fn default() -> Self {
-        GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH] }
+        GatherBatch { wi: [[0.0; BATCH]; 3], f: [[0.0; BATCH]; 3], pdf: [0.0; BATCH], index: [0; BATCH], q1: [0.0; BATCH], w1: [0.0; BATCH] }
     }
 }
 
 /// What [`CausticEstimator::gather`] reuses from one query to the next: the k-NN result (with the recent
-/// queries its warm start reads) and the batch buffer (2 KiB, zeroed once here rather than once per query:
+/// queries its warm start reads) and the batch buffer (2.5 KiB, zeroed once here rather than once per query:
 /// a query reads only the entries it wrote). One per tile, so results do not depend on which queries a
 /// thread made before.
 #[derive(Clone, Debug, Default)]
@@ -452,15 +456,23 @@ impl<'a> CausticEstimator<'a> {
             bsdf_at_wo.f_pdf_many([&wx[..n], &wy[..n], &wz[..n]], [&mut fr[..n], &mut fg[..n], &mut fb[..n]], &mut batch.pdf[..n]);
             // One loop per estimator (not a match per photon): `w₁·f·Φ` for `mis`, `f·Φ` for `pm`.
             if mis {
+                // The densities (a read of each photon's record), then all the weights in one loop of
+                // vector instructions (`power_heuristic` has no branches; perf put this sum at 5.2 % of
+                // teapot-glossy's `mis` render with the weight evaluated photon by photon), then the sum.
+                for j in 0..n {
+                    let pdf_emit = decoded[batch.index[j] as usize].pdf_emit;
+                    (batch.q1[j], batch.pdf[j]) = photon_densities(q1_scale, pdf_emit, batch.wi[2][j].abs(), batch.pdf[j]);
+                }
+                for (w, (&q1, &q2)) in batch.w1[..n].iter_mut().zip(batch.q1[..n].iter().zip(&batch.pdf[..n])) {
+                    *w = mis_weight_pair(q1, q2).0;
+                }
                 for j in 0..n {
                     let f = Vec3::new(batch.f[0][j], batch.f[1][j], batch.f[2][j]);
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let ph = &decoded[batch.index[j] as usize];
-                    let (q1, q2) = photon_densities(q1_scale, ph.pdf_emit, batch.wi[2][j].abs(), batch.pdf[j]);
-                    q1_range.add(q1);
-                    sum += (mis_weight_pair(q1, q2).0 * f) * ph.power;
+                    q1_range.add(batch.q1[j]);
+                    sum += (batch.w1[j] * f) * decoded[batch.index[j] as usize].power;
                 }
             } else {
                 for j in 0..n {

@@ -11,7 +11,7 @@
 /// underflow; here the squares are taken in f64, where no finite f32 square does either, which gives
 /// the same value with one division (the gather evaluates this for every photon: it is hot).
 ///
-/// Edge cases (method.md §4), in this order:
+/// Edge cases (method.md §4), in this order of precedence:
 /// - `q_other == 0` → 1 (only this technique can produce the sample; also when both are 0),
 /// - `q_this == 0` → 0,
 /// - both infinite → ½,
@@ -26,26 +26,18 @@ pub fn power_heuristic(q_this: f32, q_other: f32) -> f32 {
         q_this >= 0.0 && q_other >= 0.0,
         "MIS densities must be non-negative and not NaN: {q_this}, {q_other}"
     );
-    if q_other == 0.0 {
-        return 1.0;
-    }
-    if q_this == 0.0 {
-        return 0.0;
-    }
-    if q_this.is_infinite() || q_other.is_infinite() {
-        // Both ∞ → ½; this ∞ → 1; other ∞ → 0.
-        return match (q_this.is_infinite(), q_other.is_infinite()) {
-            (true, true) => 0.5,
-            (true, false) => 1.0,
-            _ => 0.0,
-        };
-    }
     // Finite f32 densities squared in f64 can neither overflow (< 1.2e77) nor underflow to 0
     // (> 1e-90), so q_this²/(q_this² + q_other²) is the ratio form's value with one division
-    // instead of two. A NaN input fails every comparison above and gives NaN here: clamp it to a
-    // valid weight (release builds).
+    // instead of two. The same arithmetic gives the edge cases' limits where it can (q_this == 0 → 0,
+    // q_other == ∞ → 0); the rest are selects below, not branches, so a loop over a batch of photons
+    // compiles to vector instructions (`CausticEstimator::gather`).
     let (a, b) = (f64::from(q_this), f64::from(q_other));
     let w = (a * a / (a * a + b * b)) as f32;
+    // q_this == ∞: ∞/∞ above; the limit is ½ against ∞ and 1 against anything finite.
+    let w = if q_this == f32::INFINITY { if q_other == f32::INFINITY { 0.5 } else { 1.0 } } else { w };
+    // q_other == 0 takes precedence over everything (0/0 above when both are 0).
+    let w = if q_other == 0.0 { 1.0 } else { w };
+    // A NaN input gives NaN: clamp it to a valid weight (release builds).
     if w.is_nan() {
         0.0
     } else {
