@@ -23,7 +23,7 @@ demo: build
 	@echo "wrote out/cornell-caustics.exr (.png, .json) and out/cornell-caustics-side-by-side.png (pt, pm, mis at equal time, RMSE against $(REF))"
 
 # `--tests`: the library's unit tests and tests/suite/ (examples are compiled by the check below instead of
-# being linked with thin LTO here).
+# being linked with LTO here).
 test: setup
 	$(CARGO) test --release --tests
 	$(CARGO) check --release --no-default-features --all-targets
