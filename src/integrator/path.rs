@@ -104,7 +104,8 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Radiance along `ray` (a camera ray), estimated with one path. `pixel_mean`: the mean of the pixel's
-    /// earlier samples (0 for its first), a scale the gather's roulette compares its bound with.
+    /// earlier samples (for its first, of the previous pixel's), a scale the gather's roulette compares its
+    /// bound with.
     pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
         let scene = self.scene;
         let lights = &scene.lights;
