@@ -330,8 +330,8 @@ impl<'a> CausticEstimator<'a> {
     /// The probability with which T1 runs at `x` (method.md §3.1): `P = min(1, max(β)·c/(κ·L))`, at least
     /// [`GATHER_MIN_PROBABILITY`], with `c` the bound of [`CausticEstimator::estimate_bound`] and `L` the
     /// largest channel of `collected` (the larger of the radiance the eye sample has gathered so far and its
-    /// pixel's mean, for a pixel's first sample its neighbour's). 1 where `L` is 0 and where no bound is known. `scratch` is the one the estimate would
-    /// use (its recent queries bound the radius).
+    /// pixel's mean, for a pixel's first sample its neighbour's). 1 where `L` is 0 and where no bound is
+    /// known. `scratch` is the one the estimate would use (its recent queries bound the radius).
     #[must_use]
     pub fn gather_probability(&self, rx: &Receiver, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch) -> f32 {
         let budget = GATHER_ROULETTE_KAPPA * collected.max_element() / beta.max_element();
