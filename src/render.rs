@@ -344,29 +344,26 @@ pub fn render_share(
                 let mut buf = TileBuffer::new(*tile);
                 let mut ps = PathStats::default();
                 let mut scratch = GatherScratch::default();
-                // The mean of the tile's previous pixel in this pass: the scale of a pixel's first sample.
-                let mut previous_mean = Vec3::ZERO;
+                // The scale the gather's roulette reads (method.md §3.1): the mean of the pixel's finite
+                // samples so far in this pass; until it has one, the mean the tile's previous pixel ended
+                // with (0 for the tile's first). A tile's pixels and a pixel's samples run in order on one
+                // thread.
+                let mut mean = Vec3::ZERO;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let pixel = u64::from(y) * width + u64::from(x);
-                        // The pixel's mean so far in this pass (finite samples), for its first sample its
-                        // neighbour's, which the gather's roulette reads (method.md §3.1): a tile's pixels
-                        // and a pixel's samples run in order on one thread.
                         let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
                         for s in spp_done..spp_done + this_pass {
                             let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
                             let j = sampler.next_2d();
                             let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
-                            let pixel_mean = if pixel_n > 0 { pixel_sum / pixel_n as f32 } else { previous_mean };
-                            let l = tracer.li(ray, &mut sampler, pixel_mean, &mut ps, &mut scratch);
+                            let l = tracer.li(ray, &mut sampler, mean, &mut ps, &mut scratch);
                             if l.is_finite() {
                                 pixel_sum += l;
                                 pixel_n += 1;
+                                mean = pixel_sum / pixel_n as f32;
                             }
                             buf.add(x, y, l);
-                        }
-                        if pixel_n > 0 {
-                            previous_mean = pixel_sum / pixel_n as f32;
                         }
                     }
                 }
