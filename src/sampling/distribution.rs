@@ -127,7 +127,10 @@ impl Distribution1D {
         // cdf[0] = 0 ≤ u and cdf[n] = 1 > u, so the partition point is in 1..=n. The CDF is monotone, so the
         // partition point is the number of entries ≤ u: for a few bins (a light's triangles) counted without
         // branches, since a binary search's branches on a random u are mispredicted half the time.
-        let i = if self.cdf.len() <= SMALL_CDF {
+        let i = if self.cdf.len() == 3 {
+            // Two bins (a rectangle's two triangles): cdf[0] = 0 ≤ u < 1 = cdf[2], so the count is 1 + (cdf[1] ≤ u).
+            usize::from(self.cdf[1] <= u)
+        } else if self.cdf.len() <= SMALL_CDF {
             self.cdf.iter().map(|&c| usize::from(c <= u)).sum::<usize>() - 1
         } else {
             self.cdf.partition_point(|&c| c <= u) - 1
