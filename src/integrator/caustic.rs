@@ -419,6 +419,9 @@ impl<'a> CausticEstimator<'a> {
     /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
+    /// Kept out of line (fat LTO had inlined it into `PathTracer::li`), so that callgrind's
+    /// `--toggle-collect` (`scripts/bench-instructions`) and perf can name its cost; one call per search.
+    #[inline(never)]
     pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch) -> Gather {
         let Receiver { si, bsdf, wo_world, wo_local, cell, .. } = *rx;
         let GatherScratch { knn, batch, .. } = scratch;
