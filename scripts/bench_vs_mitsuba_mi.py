@@ -14,7 +14,8 @@ sample positions and values as in the full image); OUT is W×H.
 Renders passes of P spp (distinct seeds) after one untimed pass that compiles the kernel: until N spp with
 --spp N, or with --seconds S as many as fit in S seconds (a pass that would end after S at the rate measured
 so far is not started); the image is the passes' mean.
-Prints one JSON line: samples, seconds (rendering only, as caustica's seconds_render), samples_per_second.
+Prints one JSON line: samples, seconds (rendering only, as caustica's seconds_render), samples_per_second, and
+samples_untimed (the compiling pass's samples, which a profile of the whole process also counts).
 """
 import argparse
 import json
@@ -118,7 +119,8 @@ def main():
     img = acc * (a.pass_spp / spp)
     mi.Bitmap(img).write(a.out)
     samples = spp * (a.crop[2] * a.crop[3] if a.crop else a.width * a.height)
-    print(json.dumps({"samples": samples, "spp": spp, "seconds": seconds, "samples_per_second": samples / seconds}))
+    untimed = a.pass_spp * (a.crop[2] * a.crop[3] if a.crop else a.width * a.height)
+    print(json.dumps({"samples": samples, "spp": spp, "seconds": seconds, "samples_per_second": samples / seconds, "samples_untimed": untimed}))
 
 
 if __name__ == "__main__":
