@@ -26,13 +26,15 @@ pub const VERSION: &str = env!("CAUSTICA_EMBREE_VERSION");
 /// Scene build quality: `RTC_BUILD_QUALITY_MEDIUM`, Embree's default binned-SAH builder (≈0.4 s for
 /// 1.15 M triangles here). `HIGH` (spatial splits) measured no gain on Embree 3.13.5 with ROBUST: the same
 /// build time on 1 M triangles and ray rates within noise on the teapot, bunny, cornell, teapot-glossy and
-/// a sky-sphere scene (ARCHITECTURE.md, Decisions); `LOW` (Morton) builds faster but traces slower.
+/// a sky-sphere scene — with ROBUST, Embree 3 builds its robust triangle BVH with the binned builder
+/// whatever the quality (ARCHITECTURE.md, Decisions); `LOW` (Morton) builds faster but traces slower.
 const BUILD_QUALITY: sys::RTCBuildQuality = sys::RTC_BUILD_QUALITY_MEDIUM;
 
 /// Scene flags: `RTC_SCENE_FLAG_ROBUST`: traversal and triangle tests avoid optimisations that lose
 /// accuracy. Needed for watertightness: without it (Embree 3.13.5), rays from a sphere's centre
 /// through its vertices leak (`tests/suite/embree_backend.rs` fails), while the brute-force oracle and the
-/// BVH use the watertight Woop test. Its speed cost was within noise in our measurements.
+/// BVH use the watertight Woop test. It costs speed: without it `pt` ran ×1.06 (an earlier stop) to ×1.12
+/// (stop 30) faster on the cornell mesh scene (ARCHITECTURE.md, Decisions, with the leak rates).
 const SCENE_FLAGS: sys::RTCSceneFlags = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST;
 
 // `RTC_FORMAT_FLOAT3` items are three packed f32; glam's `Vec3` is `#[repr(C)] { x, y, z }`.
