@@ -1,8 +1,11 @@
 //! Whether Embree's packet and stream queries pay on this machine: the incoherent, shadow and primary ray sets
 //! traced one ray per call (`rtcIntersect1` / `rtcOccluded1`), in packets of 4, 8 and 16
 //! (`rtcIntersect4/8/16`, `rtcOccluded4/8/16`) and, with Embree 3, as one stream per chunk
-//! (`rtcIntersect1M`). The variants are timed in interleaved runs (run 1 of each, then run 2, …) on the
-//! same chunks and threads; the answers of every variant are compared with one call per ray.
+//! (`rtcIntersect1M`); and, one ray per call, on the same scene built without `RTC_SCENE_FLAG_ROBUST` (as
+//! Mitsuba 3 builds its own; `EmbreeAccel::without_robust`), which shows what the renderer's watertight
+//! Embree costs on the scene. The variants are timed in interleaved runs (run 1 of each, then run 2, …) on
+//! the same chunks and threads; the answers of every variant are compared with one call per ray (for the
+//! scene without ROBUST, whose triangle test rounds differently, by the primitive hit and the occlusion).
 
 #[cfg(feature = "embree")]
 use rayon::prelude::*;
@@ -15,6 +18,10 @@ use super::BatchingRate;
 /// variants are the result, and a shared machine's load moves single runs by ±20 %).
 #[cfg(feature = "embree")]
 const RUNS: usize = 7;
+
+/// The name of the single-ray variant on the scene built without ROBUST.
+#[cfg(feature = "embree")]
+const NO_ROBUST: &str = "norobust";
 use crate::mesh::TriangleMesh;
 
 #[cfg(feature = "embree")]
@@ -25,8 +32,11 @@ pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> a
     use crate::math::Ray;
     use std::time::Instant;
 
-    let accel = EmbreeAccel::new(&mesh.positions, &mesh.indices)?;
-    let variants = Batching::AVAILABLE;
+    let robust = EmbreeAccel::new(&mesh.positions, &mesh.indices)?;
+    let fast = EmbreeAccel::without_robust(&mesh.positions, &mesh.indices)?;
+    // (scene, batching, name): the renderer's scene in every batching, then single rays without ROBUST.
+    let variants: Vec<(&EmbreeAccel, Batching, &'static str)> =
+        Batching::AVAILABLE.iter().map(|&b| (&robust, b, b.name())).chain([(&fast, Batching::Single, NO_ROBUST)]).collect();
     let mut closest: Vec<Vec<Option<Hit>>> = variants.iter().map(|_| vec![None; sets.incoherent.len()]).collect();
     let mut primary: Vec<Vec<Option<Hit>>> = variants.iter().map(|_| vec![None; sets.primary.len()]).collect();
     let mut shadow: Vec<Vec<bool>> = variants.iter().map(|_| vec![false; sets.shadow.len()]).collect();
@@ -38,7 +48,7 @@ pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> a
         start.elapsed().as_secs_f64()
     }
     for _ in 0..RUNS {
-        for (i, &batching) in variants.iter().enumerate() {
+        for (i, &(accel, batching, _)) in variants.iter().enumerate() {
             let closest_hits = |rays: &[Ray], out: &mut [Option<Hit>]| accel.intersect_batched(rays, out, batching);
             seconds[i][0].push(timed(pool, &sets.incoherent, &mut closest[i], closest_hits));
             seconds[i][2].push(timed(pool, &sets.primary, &mut primary[i], closest_hits));
@@ -48,20 +58,22 @@ pub(super) fn rates(pool: &ThreadPool, mesh: &TriangleMesh, sets: &RaySets) -> a
             }
         }
     }
-    let single = variants.iter().position(|&b| b == Batching::Single).expect("single rays are always offered");
+    let single = variants.iter().position(|&(_, b, _)| b == Batching::Single).expect("single rays are always offered");
     Ok(variants
         .iter()
         .enumerate()
-        .map(|(i, &batching)| {
-            let differ_closest = closest[i].iter().zip(&closest[single]).filter(|(a, b)| a != b).count()
-                + primary[i].iter().zip(&primary[single]).filter(|(a, b)| a != b).count();
+        .map(|(i, &(_, _, name))| {
+            // Bit for bit within the renderer's scene; without ROBUST, by the primitive hit (or none).
+            let same = |a: &Option<Hit>, b: &Option<Hit>| if name == NO_ROBUST { a.map(|h| h.prim) == b.map(|h| h.prim) } else { a == b };
+            let differ_closest = closest[i].iter().zip(&closest[single]).filter(|(a, b)| !same(a, b)).count()
+                + primary[i].iter().zip(&primary[single]).filter(|(a, b)| !same(a, b)).count();
             let has_shadow = !seconds[i][1].is_empty();
             let differ_shadow = if has_shadow { shadow[i].iter().zip(&shadow[single]).filter(|(a, b)| a != b).count() } else { 0 };
             // Speed-up over single rays: the median of the per-run ratios (run r of both variants ran
             // back to back, under about the same load).
             let speedup = |k: usize| super::median(seconds[single][k].iter().zip(&seconds[i][k]).map(|(s, b)| s / b).collect());
             BatchingRate {
-                batching: batching.name(),
+                batching: name,
                 incoherent: super::mrays(sets.incoherent.len(), super::median(seconds[i][0].clone())),
                 shadow: has_shadow.then(|| super::mrays(sets.shadow.len(), super::median(seconds[i][1].clone()))),
                 incoherent_vs_single: speedup(0),

@@ -71,13 +71,14 @@ pub struct BackendReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub raw_embree_incoherent: Option<f64>,
     /// Embree only: the incoherent and shadow sets handed to Embree one ray per call, in packets of
-    /// 4/8/16, or as streams (`embree_batching`).
+    /// 4/8/16, or as streams, and one ray per call on the scene built without ROBUST (`embree_batching`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub embree_batching: Vec<BatchingRate>,
 }
 
 /// Mrays/s of one way of handing rays to Embree (`EmbreeAccel::intersect_batched`), timed in the same
-/// interleaved runs as the others; `differ`: rays whose answer is not bit-identical to one call per ray.
+/// interleaved runs as the others; `differ`: rays whose answer is not bit-identical to one call per ray
+/// (`norobust`, single rays on the scene built without ROBUST: whose primitive hit, or occlusion, differs).
 #[derive(Serialize, Debug, Clone)]
 pub struct BatchingRate {
     pub batching: &'static str,

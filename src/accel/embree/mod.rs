@@ -74,6 +74,21 @@ impl EmbreeAccel {
     /// [`AccelError::InvalidGeometry`] for out-of-range indices or non-finite positions (Embree would
     /// read out of bounds); [`AccelError::Embree`] with Embree's message if any setup call failed.
     pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Self, AccelError> {
+        Self::build(positions, indices, SCENE_FLAGS)
+    }
+
+    /// The same scene built without `RTC_SCENE_FLAG_ROBUST`, as Mitsuba 3 builds its own: Embree's faster
+    /// triangle test, which is **not watertight** (rays through shared edges and vertices can pass through
+    /// a closed mesh). For `caustica bench` only, which reports what the flag costs on a scene and how many
+    /// answers change without it; the renderer never builds it ([`SCENE_FLAGS`]).
+    ///
+    /// # Errors
+    /// As [`EmbreeAccel::new`].
+    pub fn without_robust(positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Self, AccelError> {
+        Self::build(positions, indices, sys::RTCSceneFlags::RTC_SCENE_FLAG_NONE)
+    }
+
+    fn build(positions: &[Vec3], indices: &[[u32; 3]], flags: sys::RTCSceneFlags) -> Result<Self, AccelError> {
         super::validate_soup(positions, indices)?;
         let device = Device::new()?;
         device.check("rtcNewDevice")?;
@@ -89,7 +104,7 @@ impl EmbreeAccel {
                 return Err(AccelError::Embree(format!("expected geometry ID 0, Embree assigned {geom_id}")));
             }
         }
-        scene.set_flags(SCENE_FLAGS);
+        scene.set_flags(flags);
         scene.set_build_quality(BUILD_QUALITY);
         let scene = scene.commit();
         device.check("rtcCommitScene")?;
