@@ -13,7 +13,7 @@ use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
 use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize as DeriveDeserialize;
 
-use super::settings::{defaults, Estimator};
+use super::settings::{defaults, CausticsSettings, Estimator};
 use crate::camera::FovAxis;
 use crate::math::Vec3;
 
@@ -63,15 +63,11 @@ pub(crate) struct CausticsDesc {
     pub max_radius: Option<f32>,
 }
 
+/// A key left out of the table takes the default of [`CausticsSettings`] (the one place it is written).
 impl Default for CausticsDesc {
     fn default() -> Self {
-        Self {
-            estimator: Estimator::Pt,
-            photons: None,
-            caustic_photons: None,
-            knn: defaults::KNN,
-            max_radius: None,
-        }
+        let CausticsSettings { estimator, photons, caustic_photons, knn, max_radius } = CausticsSettings::default();
+        Self { estimator, photons, caustic_photons, knn, max_radius }
     }
 }
 

@@ -294,3 +294,19 @@ fn shipped_scenes_load_or_miss_only_assets_of_other_branches() {
         }
     }
 }
+
+/// A `[integrator.caustics]` table takes, for every key it leaves out, what a scene without the table gets
+/// (`CausticsSettings::default()`, the one place those defaults are written).
+#[test]
+fn caustics_keys_left_out_take_the_defaults() {
+    let load = |table: &str| {
+        let text = format!("[sensor]\nfov = 40\nfilm = {{ width = 8, height = 6 }}\n{table}");
+        Scene::from_toml_str(&text, &scenes_dir(), Path::new("defaults.toml")).unwrap_or_else(|e| panic!("{e}")).integrator.caustics
+    };
+    let none = load("");
+    assert_eq!(none, caustica::scene::CausticsSettings::default());
+    assert_eq!(load("[integrator.caustics]\n"), none);
+    let knn = load("[integrator.caustics]\nknn = 7\n");
+    assert_eq!(knn, caustica::scene::CausticsSettings { knn: 7, ..none });
+    assert_ne!(none.knn, 7);
+}
