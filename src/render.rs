@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
-use crate::integrator::{CausticEstimator, GatherScratch, PathStats, PathTracer, Q1Range};
+use crate::integrator::{CausticEstimator, EyePath, GatherScratch, PathStats, PathTracer, Q1Range, Wave};
 use crate::math::Vec3;
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
@@ -344,26 +344,43 @@ pub fn render_share(
                 let mut buf = TileBuffer::new(*tile);
                 let mut ps = PathStats::default();
                 let mut scratch = GatherScratch::default();
-                // The scale the gather's roulette reads (method.md §3.1): the mean of the pixel's finite
-                // samples so far in this pass; until it has one, the mean the tile's previous pixel ended
-                // with (0 for the tile's first). A tile's pixels and a pixel's samples run in order on one
-                // thread.
+                let mut wave = Wave::default();
+                let mut paths = Vec::with_capacity(this_pass as usize);
+                // The scale the gather's roulette reads (method.md §3.1): for a pixel's first sample, the mean
+                // the tile's previous pixel ended with (0 for the tile's first); for its other samples, the
+                // first sample's radiance (where finite). So a sample's roulette reads only its own pixel
+                // after the first, and a crop window renders the full film's pixels.
                 let mut mean = Vec3::ZERO;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
                         let pixel = u64::from(y) * width + u64::from(x);
-                        let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
+                        paths.clear();
                         for s in spp_done..spp_done + this_pass {
                             let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
                             let j = sampler.next_2d();
                             let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
-                            let l = tracer.li(ray, &mut sampler, mean, &mut ps, &mut scratch);
+                            paths.push(EyePath::new(ray, sampler, mean));
+                        }
+                        // The first sample alone, then the others as one wave (`PathTracer::trace_wave`), in
+                        // the same order in every run.
+                        let (first, others) = paths.split_at_mut(1);
+                        tracer.trace_wave(first, &mut wave, &mut ps, &mut scratch);
+                        let l_first = first[0].radiance();
+                        if l_first.is_finite() {
+                            others.iter_mut().for_each(|path| path.set_pixel_mean(l_first));
+                        }
+                        tracer.trace_wave(others, &mut wave, &mut ps, &mut scratch);
+                        let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
+                        for path in &paths {
+                            let l = path.radiance();
                             if l.is_finite() {
                                 pixel_sum += l;
                                 pixel_n += 1;
-                                mean = pixel_sum / pixel_n as f32;
                             }
                             buf.add(x, y, l);
+                        }
+                        if pixel_n > 0 {
+                            mean = pixel_sum / pixel_n as f32;
                         }
                     }
                 }

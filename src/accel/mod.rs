@@ -44,6 +44,21 @@ pub trait Accel: Send + Sync {
     fn occluded(&self, ray: &Ray) -> bool;
     /// Short backend name (`"embree"`, `"bvh"`, `"brute"`).
     fn name(&self) -> &'static str;
+
+    /// Closest hits of a batch of rays, `out[i]` for `rays[i]`, each exactly what [`Accel::intersect`]
+    /// answers (the path tracer's wave, `integrator::path`). Embree traces them in packets; other
+    /// backends one by one.
+    fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), out.len());
+        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray));
+    }
+
+    /// Occlusion of a batch of rays, `out[i]` for `rays[i]`, each exactly what [`Accel::occluded`]
+    /// answers.
+    fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
+        assert_eq!(rays.len(), out.len());
+        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray));
+    }
 }
 
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).

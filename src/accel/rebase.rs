@@ -245,6 +245,25 @@ impl Accel for Rebased {
     fn name(&self) -> &'static str {
         self.inner.name()
     }
+
+    /// The backend's batch where every ray is near (the common case), else one ray at a time.
+    fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), out.len());
+        if rays.iter().all(|ray| self.is_near(ray)) {
+            self.inner.intersect_many(rays, out);
+        } else {
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray));
+        }
+    }
+
+    fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
+        assert_eq!(rays.len(), out.len());
+        if rays.iter().all(|ray| self.is_near(ray)) {
+            self.inner.occluded_many(rays, out);
+        } else {
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray));
+        }
+    }
 }
 
 #[cfg(test)]

@@ -88,9 +88,18 @@ pub struct GatherScratch {
     leaf_bound: Option<LeafBound>,
 }
 
+/// What [`CausticEstimator::look_up`] finds at a vertex: the occupancy grid's cell at `x`, which the
+/// roulette's bound and the search both read, and that cell's photon sums.
+#[derive(Clone, Copy, Debug)]
+pub struct LookedUp {
+    cell: CellAt,
+    /// `OccupancyGrid::photons_in(cell)`.
+    near: Option<PhotonsNear>,
+}
+
 /// A non-delta eye vertex as the caustic estimators see it, made once per vertex
-/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, the occupancy grid's
-/// cell at `x`, which the roulette's bound and the search both read, and that cell's photon sums.
+/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, and the
+/// [`LookedUp`] cell.
 #[derive(Clone, Copy, Debug)]
 pub struct Receiver<'s> {
     pub si: &'s SurfaceInteraction,
@@ -99,10 +108,6 @@ pub struct Receiver<'s> {
     /// `si.frame.to_local(wo_world)`.
     pub wo_local: Vec3,
     cell: CellAt,
-    /// `OccupancyGrid::photons_in(cell)`, read when the receiver is made. The path tracer makes it before
-    /// the vertex's shadow ray, so that the two dependent cache misses of the look-up (the grid's bits, then
-    /// the cell's sums) overlap the ray's traversal instead of stalling the roulette's bound (perf: half of
-    /// `estimate_bound`'s time was the wait on the sums).
     near: Option<PhotonsNear>,
 }
 
@@ -342,14 +347,25 @@ impl<'a> CausticEstimator<'a> {
         self.map.and_then(PhotonMap::emission)
     }
 
-    /// The vertex `si` with outgoing direction `wo_world` (`wo_local` in its shading frame) and BSDF `bsdf`,
-    /// as [`CausticEstimator::gather_probability`] and [`CausticEstimator::gather`] take it.
+    /// The occupancy grid's cell at `si.p` and its photon sums, which a [`Receiver`] reads. The path tracer
+    /// looks them up before the vertex's shadow ray, so that the two dependent cache misses of the look-up
+    /// (the grid's bits, then the cell's sums) overlap the ray's traversal instead of stalling the
+    /// roulette's bound (perf: half of `estimate_bound`'s time was the wait on the sums).
     #[must_use]
-    pub fn receiver<'s>(&self, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo_world: Vec3, wo_local: Vec3) -> Receiver<'s> {
-        debug_assert!(wo_local.distance(si.frame.to_local(wo_world)) <= 1e-5, "wo_local is not wo_world in the shading frame");
+    pub fn look_up(&self, si: &SurfaceInteraction) -> LookedUp {
         // Without a grid the search starts from the root and no bound reads the cell.
         let cell = self.occupancy.as_ref().map_or(CellAt::NotFinite, |grid| grid.cell_at(si.p));
         let near = self.occupancy.as_ref().and_then(|grid| grid.photons_in(cell));
+        LookedUp { cell, near }
+    }
+
+    /// The vertex `si` with outgoing direction `wo_world` (`wo_local` in its shading frame) and BSDF `bsdf`,
+    /// and its [`CausticEstimator::look_up`], as [`CausticEstimator::gather_probability`] and
+    /// [`CausticEstimator::gather`] take it.
+    #[must_use]
+    pub fn receiver<'s>(&self, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo_world: Vec3, wo_local: Vec3, looked_up: LookedUp) -> Receiver<'s> {
+        debug_assert!(wo_local.distance(si.frame.to_local(wo_world)) <= 1e-5, "wo_local is not wo_world in the shading frame");
+        let LookedUp { cell, near } = looked_up;
         Receiver { si, bsdf, wo_world, wo_local, cell, near }
     }
 
@@ -584,7 +600,7 @@ mod tests {
 
     /// The vertex `si` seen from `wo` with BSDF `bsdf`, as the estimator's queries take it.
     fn vertex<'s>(est: &CausticEstimator, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo: Vec3) -> Receiver<'s> {
-        est.receiver(si, bsdf, wo, si.frame.to_local(wo))
+        est.receiver(si, bsdf, wo, si.frame.to_local(wo), est.look_up(si))
     }
 
     /// `maps` independent maps of `m` photons uniform on the square [−1, 1]² of the plane z = 0, each

@@ -6,14 +6,14 @@
 //! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
 //! through `x S⁺ L` can be weighted by `w₂`.
 
-use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, OriginArea, Q1Range};
-use crate::accel::Accel;
+use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, LookedUp, OriginArea, Q1Range};
+use crate::accel::{Accel, Hit};
 use crate::bsdf::TransportMode;
 use crate::light::Light;
 use crate::math::{Ray, Vec3};
 use crate::sampler::Sampler;
 use crate::sampling::mis::power_heuristic;
-use crate::scene::Scene;
+use crate::scene::{Scene, SurfaceInteraction};
 
 /// Counters a worker accumulates; summed over tiles for the stats.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -55,6 +55,88 @@ struct MaterialUse {
     non_delta: bool,
     /// [`Bsdf::chooses_lobe`](crate::bsdf::Bsdf::chooses_lobe): BSDF sampling takes a dimension for `u_lobe`.
     chooses_lobe: bool,
+}
+
+/// The vertex between its closest hit and its shadow ray ([`PathTracer::trace_wave`] traces a wave's
+/// shadow rays together, so the vertex waits for the answer).
+#[derive(Clone, Copy, Debug)]
+struct PendingVertex {
+    si: SurfaceInteraction,
+    wo_world: Vec3,
+    wo_local: Vec3,
+    /// The caustic estimators' look-up at `si.p` (`None` at delta vertices and without a photon map).
+    looked_up: Option<LookedUp>,
+}
+
+/// One eye path in flight: what the path tracer keeps from one ray to the next.
+#[derive(Clone, Debug)]
+pub struct EyePath {
+    sampler: Sampler,
+    /// The ray to trace next and its unit direction (computed from the value in hand, not read back from
+    /// the ray stored for the backend).
+    ray: Ray,
+    dir: Vec3,
+    /// The scale of the gather's roulette ([`PathTracer::li`]).
+    pixel_mean: Vec3,
+    l: Vec3,
+    beta: Vec3,
+    prev: Vertex,
+    /// The last non-delta vertex's T2 data, kept through delta bounces.
+    caustic: Option<CausticOrigin>,
+    first_non_delta: bool,
+    /// Delta-sampled vertices since the last non-delta vertex (T2's chain length, method.md §4).
+    delta_vertices: u32,
+    /// Number of segments of the path up to the current hit.
+    depth: u32,
+    /// The next-event estimate's shadow ray and what it adds if unoccluded.
+    shadow: Option<(Ray, Vec3)>,
+    vertex: Option<PendingVertex>,
+    done: bool,
+}
+
+impl EyePath {
+    /// A path starting with the camera ray `ray`, drawing from `sampler` (which has drawn the pixel
+    /// position); `pixel_mean` as for [`PathTracer::li`].
+    #[must_use]
+    pub fn new(ray: Ray, sampler: Sampler, pixel_mean: Vec3) -> Self {
+        EyePath {
+            sampler,
+            dir: ray.dir.normalize(),
+            ray,
+            pixel_mean,
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            prev: Vertex::Camera,
+            caustic: None,
+            first_non_delta: true,
+            delta_vertices: 0,
+            depth: 1,
+            shadow: None,
+            vertex: None,
+            done: false,
+        }
+    }
+
+    /// Sets the scale of the gather's roulette (as `EyePath::new`'s `pixel_mean`) before the path starts.
+    pub fn set_pixel_mean(&mut self, pixel_mean: Vec3) {
+        debug_assert!(self.depth == 1 && self.vertex.is_none(), "the path has started");
+        self.pixel_mean = pixel_mean;
+    }
+
+    /// The radiance the path has collected (all of it once [`PathTracer::trace_wave`] returns).
+    #[must_use]
+    pub fn radiance(&self) -> Vec3 {
+        self.l
+    }
+}
+
+/// The buffers of [`PathTracer::trace_wave`], kept from one wave to the next (one per tile).
+#[derive(Debug, Default)]
+pub struct Wave {
+    going: Vec<usize>,
+    rays: Vec<Ray>,
+    hits: Vec<Option<Hit>>,
+    occluded: Vec<bool>,
 }
 
 /// The path tracer for one render pass. Immutable and shared by all worker threads.
@@ -103,157 +185,218 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// Radiance along `ray` (a camera ray), estimated with one path. `pixel_mean`: the mean of the pixel's
-    /// earlier samples (for its first, of the previous pixel's), a scale the gather's roulette compares its
-    /// bound with.
-    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
+    /// Radiance along `ray` (a camera ray), estimated with one path, traced one ray per call.
+    /// `pixel_mean`: the mean of the pixel's earlier samples (for its first, of the previous pixel's), a
+    /// scale the gather's roulette compares its bound with. The same path, number for number, as
+    /// [`PathTracer::trace_wave`] traces it.
+    pub fn li(&self, ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
+        let mut path = EyePath::new(ray, sampler.clone(), pixel_mean);
+        while !path.done {
+            stats.rays += 1;
+            let hit = self.accel.intersect(&path.ray);
+            self.at_hit(&mut path, hit, stats, scratch);
+            if path.done {
+                break;
+            }
+            let occluded = path.shadow.as_ref().map(|(ray, _)| {
+                stats.rays += 1;
+                self.accel.occluded(ray)
+            });
+            self.after_shadow(&mut path, occluded, stats, scratch);
+        }
+        *sampler = path.sampler;
+        path.l
+    }
+
+    /// Traces the paths of `paths` together, one wave per bounce: the closest-hit rays of every path
+    /// still going in one [`Accel::intersect_many`], then their shadow rays in one
+    /// [`Accel::occluded_many`] (Embree's packets; ARCHITECTURE.md, "The path tracer's waves"). Each path
+    /// draws the same numbers and makes the same computations as [`PathTracer::li`] would; only the order
+    /// in which different paths reach the caustic estimator (whose `scratch` remembers recent searches)
+    /// follows the waves. The radiance of `paths[i]` is [`EyePath::radiance`].
+    pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, scratch: &mut GatherScratch) {
+        let Wave { going, rays, hits, occluded } = wave;
+        going.clear();
+        going.extend((0..paths.len()).filter(|&i| !paths[i].done));
+        while !going.is_empty() {
+            rays.clear();
+            rays.extend(going.iter().map(|&i| paths[i].ray));
+            hits.clear();
+            hits.resize(rays.len(), None);
+            stats.rays += rays.len() as u64;
+            self.accel.intersect_many(rays, hits);
+            for (&i, &hit) in going.iter().zip(hits.iter()) {
+                self.at_hit(&mut paths[i], hit, stats, scratch);
+            }
+            going.retain(|&i| !paths[i].done);
+            rays.clear();
+            rays.extend(going.iter().filter_map(|&i| paths[i].shadow.as_ref().map(|(ray, _)| *ray)));
+            occluded.clear();
+            occluded.resize(rays.len(), false);
+            stats.rays += rays.len() as u64;
+            self.accel.occluded_many(rays, occluded);
+            let mut answers = occluded.iter();
+            for &i in going.iter() {
+                let answer = paths[i].shadow.is_some().then(|| *answers.next().expect("one answer per shadow ray"));
+                self.after_shadow(&mut paths[i], answer, stats, scratch);
+            }
+            going.retain(|&i| !paths[i].done);
+        }
+    }
+
+    /// A path's closest hit (or escape): the emission it finds, and at a vertex that continues, the
+    /// next-event estimate's light sample and shadow ray (`path.shadow`). Marks the path done where it
+    /// ends.
+    fn at_hit(&self, path: &mut EyePath, hit: Option<Hit>, stats: &mut PathStats, scratch: &mut GatherScratch) {
         let scene = self.scene;
         let lights = &scene.lights;
-        let max_depth = self.max_depth();
-        let rr_depth = scene.integrator.rr_depth;
-        let mut l = Vec3::ZERO;
-        let mut beta = Vec3::ONE;
-        let mut prev = Vertex::Camera;
-        let mut caustic: Option<CausticOrigin> = None;
-        let mut first_non_delta = true;
-        // Delta-sampled vertices since the last non-delta vertex (T2's chain length, method.md §4).
-        let mut delta_vertices: u32 = 0;
-        // Number of segments of the path up to the current hit.
-        let mut depth: u32 = 1;
-        // The current ray's unit direction, kept beside `ray` (computed from the value in hand, not read back
-        // from the ray just stored for the backend: that read waited on the stores).
-        let mut dir = ray.dir.normalize();
-        loop {
-            stats.rays += 1;
-            let Some(hit) = self.accel.intersect(&ray) else {
-                // Escaped: environment emission, split into the part that emits photons (env maps) and
-                // the part that does not (constant), since only the first has a T1 technique.
-                for (index, light) in lights.lights().iter().enumerate() {
-                    let le = match light {
-                        Light::Env(env) => env.eval(dir),
-                        Light::Constant { radiance } => *radiance,
-                        // Rays never reach area lights here, nor the delta lights anywhere.
-                        Light::Area(_) | Light::Point(_) | Light::Directional(_) => continue,
-                    };
-                    if le == Vec3::ZERO {
-                        continue;
-                    }
-                    let pdf_emit = || match (light, self.caustics.emission()) {
-                        (Light::Env(env), Some(em)) => em.pdf_emit_env(index, env, dir),
-                        _ => 0.0,
-                    };
-                    let w = self.emission_weight(prev, caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices, stats, scratch);
-                    l += beta * w * le;
+        let (dir, beta, prev, delta_vertices) = (path.dir, path.beta, path.prev, path.delta_vertices);
+        let Some(hit) = hit else {
+            // Escaped: environment emission, split into the part that emits photons (env maps) and
+            // the part that does not (constant), since only the first has a T1 technique.
+            for (index, light) in lights.lights().iter().enumerate() {
+                let le = match light {
+                    Light::Env(env) => env.eval(dir),
+                    Light::Constant { radiance } => *radiance,
+                    // Rays never reach area lights here, nor the delta lights anywhere.
+                    Light::Area(_) | Light::Point(_) | Light::Directional(_) => continue,
+                };
+                if le == Vec3::ZERO {
+                    continue;
                 }
-                break;
-            };
-            let si = scene.interaction(&ray, &hit);
-            let wo_world = -dir;
+                let pdf_emit = || match (light, self.caustics.emission()) {
+                    (Light::Env(env), Some(em)) => em.pdf_emit_env(index, env, dir),
+                    _ => 0.0,
+                };
+                let w = self.emission_weight(prev, path.caustic.as_ref(), || lights.pdf_li_escaped(dir), pdf_emit, delta_vertices, stats, scratch);
+                path.l += beta * w * le;
+            }
+            path.done = true;
+            return;
+        };
+        let si = scene.interaction(&path.ray, &hit);
+        let wo_world = -dir;
 
-            // Emission from an area light that was hit.
-            if let Some(light_index) = lights.light_of_prim(hit.prim) {
-                let le = lights.le_area(hit.prim, si.ng, wo_world);
-                if le != Vec3::ZERO {
-                    let light_pdf = || match prev {
-                        Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),
-                        _ => 0.0,
-                    };
-                    let pdf_emit = || self.caustics.emission().map_or(0.0, |em| em.pdf_emit_area(light_index, si.p, si.ng, wo_world));
-                    l += beta * self.emission_weight(prev, caustic.as_ref(), light_pdf, pdf_emit, delta_vertices, stats, scratch) * le;
-                }
+        // Emission from an area light that was hit.
+        if let Some(light_index) = lights.light_of_prim(hit.prim) {
+            let le = lights.le_area(hit.prim, si.ng, wo_world);
+            if le != Vec3::ZERO {
+                let light_pdf = || match prev {
+                    Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),
+                    _ => 0.0,
+                };
+                let pdf_emit = || self.caustics.emission().map_or(0.0, |em| em.pdf_emit_area(light_index, si.p, si.ng, wo_world));
+                path.l += beta * self.emission_weight(prev, path.caustic.as_ref(), light_pdf, pdf_emit, delta_vertices, stats, scratch) * le;
             }
-            if depth >= max_depth {
-                break;
-            }
-
-            let bsdf = &scene.bsdfs[si.material as usize];
-            let material = self.materials[si.material as usize];
-            let wo_local = si.frame.to_local(wo_world);
-            let non_delta = material.non_delta;
-            // The caustic estimators' view of this vertex, made before the shadow ray: its grid look-up's
-            // cache misses then overlap the ray (`caustic::Receiver`).
-            let receiver = (non_delta && self.caustics.active()).then(|| self.caustics.receiver(&si, bsdf, wo_world, wo_local));
-
-            // Next-event estimation (direct light L x), MIS with BSDF sampling. Choosing among lights and
-            // lobes takes a dimension only where there is a choice (`LightSet::chooses_light`,
-            // `Bsdf::chooses_lobe`).
-            if non_delta && !lights.is_empty() {
-                let u_sel = if lights.chooses_light() { sampler.next_1d() } else { 0.0 };
-                let u_li = sampler.next_2d();
-                if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
-                    let wi_local = si.frame.to_local(ls.wi_world);
-                    let (f, bsdf_pdf_w) = bsdf.f_pdf(wo_local, wi_local, TransportMode::Radiance);
-                    let f = f * wi_local.z.abs();
-                    if f != Vec3::ZERO && ls.pdf_w > 0.0 && ls.li != Vec3::ZERO {
-                        let shadow = if ls.dist.is_finite() { si.spawn_ray_to(ls.p_light) } else { si.spawn_ray(ls.wi_world) };
-                        stats.rays += 1;
-                        if !self.accel.occluded(&shadow) {
-                            // BSDF sampling reaches a delta light with probability 0: its density for this
-                            // path is 0 and the one MIS function gives NEE weight 1 (method.md §4.1).
-                            let bsdf_pdf_w = if ls.delta { 0.0 } else { bsdf_pdf_w };
-                            let w = power_heuristic(ls.pdf_w, bsdf_pdf_w);
-                            l += beta * f * ls.li * (w / ls.pdf_w);
-                        }
-                    }
-                }
-            }
-
-            // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs.
-            let mut area = None;
-            let alpha = if first_non_delta { self.alpha } else { 1.0 };
-            if let Some(rx) = &receiver {
-                let p_gather = self.caustics.gather_probability(rx, beta, l.max(pixel_mean), scratch);
-                // The roulette's number is drawn whether P < 1 or not, and independent of the pixel's other
-                // samples (`Sampler::next_independent_1d`): P reads their radiance (`pixel_mean`) and their
-                // queries (`scratch`). Drawn only where P < 1, it shifted this sample's later dimensions by
-                // what the earlier samples found, and those dimensions are stratified against theirs: the
-                // direction after a dark sample leaned toward bright ones (method.md §3.1; +7.5 % on the
-                // cornell ceiling in `pm` with 4-spp passes).
-                if sampler.next_independent_1d() < p_gather {
-                    let g = self.caustics.gather(rx, alpha, scratch);
-                    stats.knn_queries += 1;
-                    stats.q1.merge(&g.q1);
-                    l += beta * g.l1 / p_gather;
-                    area = Some(OriginArea::Known(g.delta_area));
-                } else {
-                    area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
-                }
-            }
-            if non_delta {
-                first_non_delta = false;
-            }
-
-            // Continue the path by BSDF sampling.
-            let u_lobe = if material.chooses_lobe { sampler.next_1d() } else { 0.0 };
-            let u_dir = sampler.next_2d();
-            let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir, TransportMode::Radiance) else { break };
-            if bs.weight == Vec3::ZERO {
-                break;
-            }
-            beta *= bs.weight;
-            debug_assert!(beta.is_finite(), "throughput not finite: {beta}");
-            let wi_world = si.frame.to_world(bs.wi_local);
-            if bs.delta {
-                prev = Vertex::Delta;
-                delta_vertices = delta_vertices.saturating_add(1);
-            } else {
-                delta_vertices = 0;
-                prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
-                caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha });
-            }
-
-            // Russian roulette (survival ∝ throughput, capped at 0.95).
-            if depth >= rr_depth {
-                let p_survive = beta.max_element().min(0.95);
-                if p_survive <= 0.0 || sampler.next_1d() >= p_survive {
-                    break;
-                }
-                beta /= p_survive;
-            }
-            depth += 1;
-            ray = si.spawn_ray(wi_world);
-            dir = wi_world.normalize();
         }
-        l
+        if path.depth >= self.max_depth() {
+            path.done = true;
+            return;
+        }
+
+        let bsdf = &scene.bsdfs[si.material as usize];
+        let material = self.materials[si.material as usize];
+        let wo_local = si.frame.to_local(wo_world);
+        // The caustic estimators' look-up at this vertex, made before the shadow ray: its cache misses
+        // then overlap the ray (`caustic::Receiver`).
+        let looked_up = (material.non_delta && self.caustics.active()).then(|| self.caustics.look_up(&si));
+
+        // Next-event estimation (direct light L x), MIS with BSDF sampling. Choosing among lights and
+        // lobes takes a dimension only where there is a choice (`LightSet::chooses_light`,
+        // `Bsdf::chooses_lobe`).
+        path.shadow = None;
+        if material.non_delta && !lights.is_empty() {
+            let sampler = &mut path.sampler;
+            let u_sel = if lights.chooses_light() { sampler.next_1d() } else { 0.0 };
+            let u_li = sampler.next_2d();
+            if let Some((_, ls)) = lights.sample_li(si.p, u_sel, u_li) {
+                let wi_local = si.frame.to_local(ls.wi_world);
+                let (f, bsdf_pdf_w) = bsdf.f_pdf(wo_local, wi_local, TransportMode::Radiance);
+                let f = f * wi_local.z.abs();
+                if f != Vec3::ZERO && ls.pdf_w > 0.0 && ls.li != Vec3::ZERO {
+                    let shadow = if ls.dist.is_finite() { si.spawn_ray_to(ls.p_light) } else { si.spawn_ray(ls.wi_world) };
+                    // BSDF sampling reaches a delta light with probability 0: its density for this
+                    // path is 0 and the one MIS function gives NEE weight 1 (method.md §4.1).
+                    let bsdf_pdf_w = if ls.delta { 0.0 } else { bsdf_pdf_w };
+                    let w = power_heuristic(ls.pdf_w, bsdf_pdf_w);
+                    path.shadow = Some((shadow, beta * f * ls.li * (w / ls.pdf_w)));
+                }
+            }
+        }
+        path.vertex = Some(PendingVertex { si, wo_world, wo_local, looked_up });
+    }
+
+    /// The rest of the vertex `at_hit` left pending, given whether its shadow ray was occluded (`None`
+    /// without one): the next-event estimate, T1, BSDF sampling, Russian roulette and the next ray.
+    fn after_shadow(&self, path: &mut EyePath, occluded: Option<bool>, stats: &mut PathStats, scratch: &mut GatherScratch) {
+        let PendingVertex { si, wo_world, wo_local, looked_up } = path.vertex.take().expect("at_hit left a vertex");
+        if let (Some((_, nee)), Some(false)) = (path.shadow.take(), occluded) {
+            path.l += nee;
+        }
+        let bsdf = &self.scene.bsdfs[si.material as usize];
+        let material = self.materials[si.material as usize];
+        let sampler = &mut path.sampler;
+
+        // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs.
+        let mut area = None;
+        let alpha = if path.first_non_delta { self.alpha } else { 1.0 };
+        if let Some(looked_up) = looked_up {
+            let rx = self.caustics.receiver(&si, bsdf, wo_world, wo_local, looked_up);
+            let p_gather = self.caustics.gather_probability(&rx, path.beta, path.l.max(path.pixel_mean), scratch);
+            // The roulette's number is drawn whether P < 1 or not, and independent of the pixel's other
+            // samples (`Sampler::next_independent_1d`): P reads their radiance (`pixel_mean`) and their
+            // queries (`scratch`). Drawn only where P < 1, it shifted this sample's later dimensions by
+            // what the earlier samples found, and those dimensions are stratified against theirs: the
+            // direction after a dark sample leaned toward bright ones (method.md §3.1; +7.5 % on the
+            // cornell ceiling in `pm` with 4-spp passes).
+            if sampler.next_independent_1d() < p_gather {
+                let g = self.caustics.gather(&rx, alpha, scratch);
+                stats.knn_queries += 1;
+                stats.q1.merge(&g.q1);
+                path.l += path.beta * g.l1 / p_gather;
+                area = Some(OriginArea::Known(g.delta_area));
+            } else {
+                area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
+            }
+        }
+        if material.non_delta {
+            path.first_non_delta = false;
+        }
+
+        // Continue the path by BSDF sampling.
+        let u_lobe = if material.chooses_lobe { sampler.next_1d() } else { 0.0 };
+        let u_dir = sampler.next_2d();
+        let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir, TransportMode::Radiance) else {
+            path.done = true;
+            return;
+        };
+        if bs.weight == Vec3::ZERO {
+            path.done = true;
+            return;
+        }
+        path.beta *= bs.weight;
+        debug_assert!(path.beta.is_finite(), "throughput not finite: {}", path.beta);
+        let wi_world = si.frame.to_world(bs.wi_local);
+        if bs.delta {
+            path.prev = Vertex::Delta;
+            path.delta_vertices = path.delta_vertices.saturating_add(1);
+        } else {
+            path.delta_vertices = 0;
+            path.prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
+            path.caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha });
+        }
+
+        // Russian roulette (survival ∝ throughput, capped at 0.95).
+        if path.depth >= self.scene.integrator.rr_depth {
+            let p_survive = path.beta.max_element().min(0.95);
+            if p_survive <= 0.0 || sampler.next_1d() >= p_survive {
+                path.done = true;
+                return;
+            }
+            path.beta /= p_survive;
+        }
+        path.depth += 1;
+        path.ray = si.spawn_ray(wi_world);
+        path.dir = wi_world.normalize();
     }
 }

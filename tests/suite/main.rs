@@ -27,6 +27,7 @@ mod mesh_load;
 mod mitsuba_features;
 mod mutation;
 mod parts;
+mod path_waves;
 mod photon_emission;
 mod photon_kdtree;
 mod render_analytic;

@@ -206,6 +206,19 @@ impl EmbreeAccel {
     }
 }
 
+/// `out[i]` for `rays[i]`: eight rays at a time by `packet`, a lone ray by `one`.
+fn in_packets_of_8<T>(rays: &[Ray], out: &mut [T], one: impl Fn(&Ray) -> T, mut packet: impl FnMut(&[Ray], &mut [T])) {
+    assert_eq!(rays.len(), out.len());
+    ensure_ftz_daz();
+    for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
+        if let ([ray], [o]) = (rays, &mut *out) {
+            *o = one(ray);
+        } else {
+            packet(rays, out);
+        }
+    }
+}
+
 impl Accel for EmbreeAccel {
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
@@ -227,5 +240,20 @@ impl Accel for EmbreeAccel {
 
     fn name(&self) -> &'static str {
         "embree"
+    }
+
+    /// In packets of 8 (`rtcIntersect8`), a lone ray by `rtcIntersect1`: the same answers bit for bit
+    /// (`query::packet_queries`). On the path tracer's waves of real render rays (cornell scene with mesh
+    /// spheres, waves of 76 rays on average), packets of 8 trace closest-hit rays 1.21× and shadow rays
+    /// 1.50× as fast as one call per ray; packets of 4 1.20× and 1.26×, of 16 1.17× and 1.59×, a stream
+    /// (`rtcIntersect1M`) 1.15× (ARCHITECTURE.md, "The path tracer's waves").
+    fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        let mut ctx = QueryContext::new();
+        in_packets_of_8(rays, out, |ray| self.intersect(ray), |rays, out| ctx.intersect8(&self.scene, rays, out));
+    }
+
+    fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
+        let mut ctx = QueryContext::new();
+        in_packets_of_8(rays, out, |ray| self.occluded(ray), |rays, out| ctx.occluded8(&self.scene, rays, out));
     }
 }
