@@ -341,46 +341,51 @@ pub fn render_share(
                 if cancel.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
                     return None;
                 }
+                // Sample `s` of pixel (x, y): its camera ray and its sampler (past the pixel position).
+                let camera_sample = |x: u32, y: u32, s: u32| {
+                    let mut sampler = Sampler::for_pixel(settings.seed, u64::from(y) * width + u64::from(x), u64::from(s));
+                    let j = sampler.next_2d();
+                    (scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y), sampler)
+                };
                 let mut buf = TileBuffer::new(*tile);
                 let mut ps = PathStats::default();
                 let mut scratch = GatherScratch::default();
-                let mut wave = Wave::default();
-                let mut paths = Vec::with_capacity(this_pass as usize);
-                // The scale the gather's roulette reads (method.md §3.1): for a pixel's first sample, the mean
-                // the tile's previous pixel ended with (0 for the tile's first); for its other samples, the
-                // first sample's radiance (where finite). So a sample's roulette reads only its own pixel
-                // after the first, and a crop window renders the full film's pixels.
-                let mut mean = Vec3::ZERO;
-                for y in tile.y0..tile.y1 {
-                    for x in tile.x0..tile.x1 {
-                        let pixel = u64::from(y) * width + u64::from(x);
-                        paths.clear();
-                        for s in spp_done..spp_done + this_pass {
-                            let mut sampler = Sampler::for_pixel(settings.seed, pixel, u64::from(s));
-                            let j = sampler.next_2d();
-                            let ray = scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y);
-                            paths.push(EyePath::new(ray, sampler, mean));
-                        }
-                        // The first sample alone, then the others as one wave (`PathTracer::trace_wave`), in
-                        // the same order in every run.
-                        let (first, others) = paths.split_at_mut(1);
-                        tracer.trace_wave(first, &mut wave, &mut ps, &mut scratch);
-                        let l_first = first[0].radiance();
-                        if l_first.is_finite() {
-                            others.iter_mut().for_each(|path| path.set_pixel_mean(l_first));
-                        }
-                        tracer.trace_wave(others, &mut wave, &mut ps, &mut scratch);
-                        let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
-                        for path in &paths {
-                            let l = path.radiance();
-                            if l.is_finite() {
-                                pixel_sum += l;
-                                pixel_n += 1;
+                if tracer.reads_earlier_samples() {
+                    // The gather's roulette reads the pixel's earlier samples and the tile's recent searches
+                    // (method.md §3.1): a tile's pixels and a pixel's samples run in order, one path at a
+                    // time. Its scale: the mean of the pixel's finite samples so far in this pass; until it
+                    // has one, the mean the tile's previous pixel ended with (0 for the tile's first).
+                    let mut mean = Vec3::ZERO;
+                    for y in tile.y0..tile.y1 {
+                        for x in tile.x0..tile.x1 {
+                            let (mut pixel_sum, mut pixel_n) = (Vec3::ZERO, 0u32);
+                            for s in spp_done..spp_done + this_pass {
+                                let (ray, mut sampler) = camera_sample(x, y, s);
+                                let l = tracer.li(ray, &mut sampler, mean, &mut ps, &mut scratch);
+                                if l.is_finite() {
+                                    pixel_sum += l;
+                                    pixel_n += 1;
+                                    mean = pixel_sum / pixel_n as f32;
+                                }
+                                buf.add(x, y, l);
                             }
-                            buf.add(x, y, l);
                         }
-                        if pixel_n > 0 {
-                            mean = pixel_sum / pixel_n as f32;
+                    }
+                } else {
+                    // No path reads another: one wave per sample index, the paths of all the tile's pixels
+                    // traced together (`PathTracer::trace_wave`: Embree packets of rays of one kind).
+                    let mut wave = Wave::default();
+                    let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1).flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y))).collect();
+                    let mut paths = Vec::with_capacity(pixels.len());
+                    for s in spp_done..spp_done + this_pass {
+                        paths.clear();
+                        paths.extend(pixels.iter().map(|&(x, y)| {
+                            let (ray, sampler) = camera_sample(x, y, s);
+                            EyePath::new(ray, sampler, Vec3::ZERO)
+                        }));
+                        tracer.trace_wave(&mut paths, &mut wave, &mut ps, &mut scratch);
+                        for (&(x, y), path) in pixels.iter().zip(&paths) {
+                            buf.add(x, y, path.radiance());
                         }
                     }
                 }

@@ -117,12 +117,6 @@ impl EyePath {
         }
     }
 
-    /// Sets the scale of the gather's roulette (as `EyePath::new`'s `pixel_mean`) before the path starts.
-    pub fn set_pixel_mean(&mut self, pixel_mean: Vec3) {
-        debug_assert!(self.depth == 1 && self.vertex.is_none(), "the path has started");
-        self.pixel_mean = pixel_mean;
-    }
-
     /// The radiance the path has collected (all of it once [`PathTracer::trace_wave`] returns).
     #[must_use]
     pub fn radiance(&self) -> Vec3 {
@@ -185,6 +179,15 @@ impl<'a> PathTracer<'a> {
         }
     }
 
+    /// Whether a path reads what earlier paths found: the gather's roulette (method.md §3.1) reads the
+    /// pixel's earlier samples (`pixel_mean`) and the tile's recent searches (`GatherScratch`), so with a
+    /// photon map the samples run in order through [`PathTracer::li`]; without one, paths are independent
+    /// and run as waves ([`PathTracer::trace_wave`]).
+    #[must_use]
+    pub fn reads_earlier_samples(&self) -> bool {
+        self.caustics.active()
+    }
+
     /// Radiance along `ray` (a camera ray), estimated with one path, traced one ray per call.
     /// `pixel_mean`: the mean of the pixel's earlier samples (for its first, of the previous pixel's), a
     /// scale the gather's roulette compares its bound with. The same path, number for number, as
@@ -213,7 +216,8 @@ impl<'a> PathTracer<'a> {
     /// [`Accel::occluded_many`] (Embree's packets; ARCHITECTURE.md, "The path tracer's waves"). Each path
     /// draws the same numbers and makes the same computations as [`PathTracer::li`] would; only the order
     /// in which different paths reach the caustic estimator (whose `scratch` remembers recent searches)
-    /// follows the waves. The radiance of `paths[i]` is [`EyePath::radiance`].
+    /// follows the waves, which is why a render uses waves only where no path reads another
+    /// ([`PathTracer::reads_earlier_samples`]). The radiance of `paths[i]` is [`EyePath::radiance`].
     pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, scratch: &mut GatherScratch) {
         let Wave { going, rays, hits, occluded } = wave;
         going.clear();

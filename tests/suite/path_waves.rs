@@ -1,4 +1,4 @@
-//! The path tracer's waves (`PathTracer::trace_wave`, what a render runs): every path of a wave is the
+//! The path tracer's waves (`PathTracer::trace_wave`, what a `pt` render runs): every path of a wave is the
 //! path `PathTracer::li` traces alone, one ray per call, bit for bit, with Embree's packets and with the
 //! BVH — for waves of every length up to past a packet, paths that escape at once, and long delta chains.
 
