@@ -1,10 +1,13 @@
 //! The path tracer: next-event estimation + BSDF sampling combined by the power heuristic (Veach 1997
 //! §9.2.4), Russian roulette, and the caustic estimator hooks of [`super::caustic`].
 //!
-//! Path state is one struct ([`Vertex`]): what the vertex that spawned the current ray was (camera,
-//! delta, non-delta with its position and BSDF pdf), and — when a photon map is active — the
-//! [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that emission reached
-//! through `x S⁺ L` can be weighted by `w₂`.
+//! A path in flight is an [`EyePath`]: its ray, throughput and radiance, what the vertex that spawned
+//! the ray was ([`Vertex`]: camera, delta, non-delta with its position and BSDF pdf), and — when a photon
+//! map is active — the [`CausticOrigin`] of the last non-delta vertex, kept through delta bounces so that
+//! emission reached through `x S⁺ L` can be weighted by `w₂`. A vertex is two steps around its shadow
+//! ray, `at_hit` and `after_shadow`, which two drivers run: [`PathTracer::li`], one path and one ray per
+//! call, and [`PathTracer::trace_wave`], many paths whose rays go to the backend in batches
+//! (ARCHITECTURE.md, "The path tracer's waves").
 
 use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, LookedUp, OriginArea, Q1Range};
 use crate::accel::{Accel, Hit};
