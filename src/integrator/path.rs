@@ -182,10 +182,9 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// Whether a path reads what earlier paths found: the gather's roulette (method.md §3.1) reads the
-    /// pixel's earlier samples (`pixel_mean`) and the tile's recent searches (`GatherScratch`), so with a
-    /// photon map the samples run in order through [`PathTracer::li`]; without one, paths are independent
-    /// and run as waves ([`PathTracer::trace_wave`]).
+    /// Whether a path reads what earlier paths found: with a photon map the gather's roulette (method.md
+    /// §3.1) reads the pixel's earlier samples (`pixel_mean`) and the recent searches of its scratch
+    /// (`GatherScratch`); without one, paths are independent.
     #[must_use]
     pub fn reads_earlier_samples(&self) -> bool {
         self.caustics.active()
@@ -217,11 +216,13 @@ impl<'a> PathTracer<'a> {
     /// Traces the paths of `paths` together, one wave per bounce: the closest-hit rays of every path
     /// still going in one [`Accel::intersect_many`], then their shadow rays in one
     /// [`Accel::occluded_many`] (Embree's packets; ARCHITECTURE.md, "The path tracer's waves"). Each path
-    /// draws the same numbers and makes the same computations as [`PathTracer::li`] would; only the order
-    /// in which different paths reach the caustic estimator (whose `scratch` remembers recent searches)
-    /// follows the waves, which is why a render uses waves only where no path reads another
-    /// ([`PathTracer::reads_earlier_samples`]). The radiance of `paths[i]` is [`EyePath::radiance`].
-    pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, scratch: &mut GatherScratch) {
+    /// draws the same numbers and makes the same computations as [`PathTracer::li`] would, given the same
+    /// caustic scratch: `scratches` holds one for all the paths, or one per path (the gather's roulette
+    /// reads its recent searches; [`PathTracer::reads_earlier_samples`]). The radiance of `paths[i]` is
+    /// [`EyePath::radiance`].
+    pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, scratches: &mut [GatherScratch]) {
+        assert!(scratches.len() == 1 || scratches.len() == paths.len(), "one scratch, or one per path");
+        let shared = scratches.len() == 1;
         let Wave { going, rays, hits, occluded } = wave;
         going.clear();
         going.extend((0..paths.len()).filter(|&i| !paths[i].done));
@@ -233,7 +234,7 @@ impl<'a> PathTracer<'a> {
             stats.rays += rays.len() as u64;
             self.accel.intersect_many(rays, hits);
             for (&i, &hit) in going.iter().zip(hits.iter()) {
-                self.at_hit(&mut paths[i], hit, stats, scratch);
+                self.at_hit(&mut paths[i], hit, stats, &mut scratches[if shared { 0 } else { i }]);
             }
             going.retain(|&i| !paths[i].done);
             rays.clear();
@@ -245,7 +246,7 @@ impl<'a> PathTracer<'a> {
             let mut answers = occluded.iter();
             for &i in going.iter() {
                 let answer = paths[i].shadow.is_some().then(|| *answers.next().expect("one answer per shadow ray"));
-                self.after_shadow(&mut paths[i], answer, stats, scratch);
+                self.after_shadow(&mut paths[i], answer, stats, &mut scratches[if shared { 0 } else { i }]);
             }
             going.retain(|&i| !paths[i].done);
         }

@@ -44,7 +44,7 @@ fn a_wave_traces_each_path_as_li_does() {
                 let mean = Vec3::splat(0.3);
                 let mut paths: Vec<EyePath> = starts.iter().map(|(s, ray)| EyePath::new(*ray, s.clone(), mean)).collect();
                 let mut stats = PathStats::default();
-                tracer.trace_wave(&mut paths, &mut wave, &mut stats, &mut GatherScratch::default());
+                tracer.trace_wave(&mut paths, &mut wave, &mut stats, &mut [GatherScratch::default()]);
                 rays_waved += stats.rays;
                 for ((sampler, ray), path) in starts.iter().zip(&paths) {
                     let mut stats = PathStats::default();
