@@ -169,7 +169,7 @@ impl<'a> PathTracer<'a> {
     /// `delta_vertices`: delta-sampled vertices since the last non-delta one (the caustic chain's length);
     /// `pdf_emit`: the density with which the photon pass would start a photon where this emission was
     /// found (0 for emitters without photons; evaluated only for `x S⁺ L`).
-    /// `stats`: where T2's q₁ and its searches for ΔA are recorded; `scratch`: the tile's, for those searches.
+    /// `stats`: where T2's q₁ and its searches for ΔA are recorded; `scratch`: the path's, for those searches.
     #[allow(clippy::too_many_arguments)]
     fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, stats: &mut PathStats, scratch: &mut GatherScratch) -> f32 {
         match prev {
@@ -191,9 +191,10 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Radiance along `ray` (a camera ray), estimated with one path, traced one ray per call.
-    /// `pixel_mean`: the mean of the pixel's earlier samples (for its first, of the previous pixel's), a
-    /// scale the gather's roulette compares its bound with. The same path, number for number, as
-    /// [`PathTracer::trace_wave`] traces it.
+    /// `pixel_mean`: a scale the gather's roulette compares its bound with, from other samples (the render
+    /// gives the mean of the pixel's earlier samples, for its first sample the previous pixel's first
+    /// sample's radiance; method.md §3.1). The same path, number for number, as [`PathTracer::trace_wave`]
+    /// traces it with the same scratch.
     pub fn li(&self, ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
         let mut path = EyePath::new(ray, sampler.clone(), pixel_mean);
         while !path.done {
