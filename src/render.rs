@@ -365,22 +365,28 @@ pub fn render_share(
                 // a pixel's samples ran one after another (without this, a wave's searches run a pixel
                 // apart: +46 % searches on teapot-glossy). Without a photon map nothing is read.
                 let reads = tracer.reads_earlier_samples();
+                // A sample's radiance into the film and, where finite, into its pixel's sum.
+                let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), l: Vec3| {
+                    if l.is_finite() {
+                        *sum = (sum.0 + l, sum.1 + 1);
+                    }
+                    buf.add(x, y, l);
+                };
                 let mut scratches = Vec::with_capacity(if reads { pixels.len() } else { 1 });
                 let first = if reads {
                     let mut mean = Vec3::ZERO;
                     for (&(x, y), sum) in pixels.iter().zip(&mut sums) {
                         let (ray, mut sampler) = camera_sample(x, y, spp_done);
                         let l = tracer.li(ray, &mut sampler, mean, &mut ps, &mut scratch);
-                        if l.is_finite() {
-                            *sum = (l, 1);
-                            mean = l;
+                        record((x, y), sum, l);
+                        if sum.1 > 0 {
+                            mean = sum.0;
                         }
-                        buf.add(x, y, l);
                         scratches.push(scratch.clone());
                     }
                     1
                 } else {
-                    scratches.push(scratch.clone());
+                    scratches.push(scratch);
                     0
                 };
                 for s in spp_done + first..spp_done + this_pass {
@@ -394,12 +400,8 @@ pub fn render_share(
                         EyePath::new(ray, sampler, mean)
                     }));
                     tracer.trace_wave(&mut paths, &mut wave, &mut ps, &mut scratches);
-                    for ((&(x, y), sum), path) in pixels.iter().zip(&mut sums).zip(&paths) {
-                        let l = path.radiance();
-                        if l.is_finite() {
-                            *sum = (sum.0 + l, sum.1 + 1);
-                        }
-                        buf.add(x, y, l);
+                    for ((&pixel, sum), path) in pixels.iter().zip(&mut sums).zip(&paths) {
+                        record(pixel, sum, path.radiance());
                     }
                 }
                 on_tile(u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * u64::from(this_pass));

@@ -171,18 +171,19 @@ impl Batching {
 }
 
 impl EmbreeAccel {
-    /// Closest hits of `rays` handed to Embree as `batching` says (streams: one call for all of `rays`);
-    /// `out[i]` answers `rays[i]`, the same answer whatever the batching.
+    /// Closest hits of `rays` handed to Embree as `batching` says (packets: a lone ray left over by
+    /// `rtcIntersect1`; streams: one call for all of `rays`); `out[i]` answers `rays[i]`, the same answer
+    /// whatever the batching.
     pub fn intersect_batched(&self, rays: &[Ray], out: &mut [Option<Hit>], batching: Batching) {
         assert_eq!(rays.len(), out.len());
         ensure_ftz_daz();
         let mut ctx = QueryContext::new();
+        let one = |ray: &Ray| self.intersect(ray);
         match batching {
-            // What the renderer does: one `Accel::intersect` per ray.
-            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray)),
-            Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.intersect4(&self.scene, r, o)),
-            Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.intersect8(&self.scene, r, o)),
-            Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.intersect16(&self.scene, r, o)),
+            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray)),
+            Batching::Packet4 => in_packets(4, rays, out, one, |r, o| ctx.intersect4(&self.scene, r, o)),
+            Batching::Packet8 => in_packets(8, rays, out, one, |r, o| ctx.intersect8(&self.scene, r, o)),
+            Batching::Packet16 => in_packets(16, rays, out, one, |r, o| ctx.intersect16(&self.scene, r, o)),
             #[cfg(embree3)]
             Batching::Stream => ctx.intersect_stream(&self.scene, rays, out),
             #[cfg(not(embree3))]
@@ -190,27 +191,28 @@ impl EmbreeAccel {
         }
     }
 
-    /// Occlusion of `rays` handed to Embree as `batching` says (`Stream` is not offered: panics);
-    /// `out[i]` answers `rays[i]` as [`Accel::occluded`] does.
+    /// Occlusion of `rays` handed to Embree as `batching` says (packets: a lone ray left over by
+    /// `rtcOccluded1`; `Stream` is not offered: panics); `out[i]` answers `rays[i]` as [`Accel::occluded`]
+    /// does.
     pub fn occluded_batched(&self, rays: &[Ray], out: &mut [bool], batching: Batching) {
         assert_eq!(rays.len(), out.len());
         ensure_ftz_daz();
         let mut ctx = QueryContext::new();
+        let one = |ray: &Ray| self.occluded(ray);
         match batching {
-            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray)),
-            Batching::Packet4 => rays.chunks(4).zip(out.chunks_mut(4)).for_each(|(r, o)| ctx.occluded4(&self.scene, r, o)),
-            Batching::Packet8 => rays.chunks(8).zip(out.chunks_mut(8)).for_each(|(r, o)| ctx.occluded8(&self.scene, r, o)),
-            Batching::Packet16 => rays.chunks(16).zip(out.chunks_mut(16)).for_each(|(r, o)| ctx.occluded16(&self.scene, r, o)),
+            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray)),
+            Batching::Packet4 => in_packets(4, rays, out, one, |r, o| ctx.occluded4(&self.scene, r, o)),
+            Batching::Packet8 => in_packets(8, rays, out, one, |r, o| ctx.occluded8(&self.scene, r, o)),
+            Batching::Packet16 => in_packets(16, rays, out, one, |r, o| ctx.occluded16(&self.scene, r, o)),
             Batching::Stream => panic!("no occlusion stream is offered"),
         }
     }
 }
 
-/// `out[i]` for `rays[i]`: eight rays at a time by `packet`, a lone ray by `one`.
-fn in_packets_of_8<T>(rays: &[Ray], out: &mut [T], one: impl Fn(&Ray) -> T, mut packet: impl FnMut(&[Ray], &mut [T])) {
-    assert_eq!(rays.len(), out.len());
-    ensure_ftz_daz();
-    for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
+/// `out[i]` for `rays[i]`: `n` rays at a time by `packet`, a lone ray left over by `one` (a packet call
+/// with one active lane costs more than a single-ray call).
+fn in_packets<T>(n: usize, rays: &[Ray], out: &mut [T], one: impl Fn(&Ray) -> T, mut packet: impl FnMut(&[Ray], &mut [T])) {
+    for (rays, out) in rays.chunks(n).zip(out.chunks_mut(n)) {
         if let ([ray], [o]) = (rays, &mut *out) {
             *o = one(ray);
         } else {
@@ -248,12 +250,10 @@ impl Accel for EmbreeAccel {
     /// 1.50× as fast as one call per ray; packets of 4 1.20× and 1.26×, of 16 1.17× and 1.59×, a stream
     /// (`rtcIntersect1M`) 1.15× (ARCHITECTURE.md, "The path tracer's waves").
     fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
-        let mut ctx = QueryContext::new();
-        in_packets_of_8(rays, out, |ray| self.intersect(ray), |rays, out| ctx.intersect8(&self.scene, rays, out));
+        self.intersect_batched(rays, out, Batching::Packet8);
     }
 
     fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
-        let mut ctx = QueryContext::new();
-        in_packets_of_8(rays, out, |ray| self.occluded(ray), |rays, out| ctx.occluded8(&self.scene, rays, out));
+        self.occluded_batched(rays, out, Batching::Packet8);
     }
 }
