@@ -234,6 +234,7 @@ impl<'a> PathTracer<'a> {
             hits.resize(rays.len(), None);
             stats.rays += rays.len() as u64;
             self.accel.intersect_many(rays, hits);
+            self.scene.warm_shading(hits);
             for (&i, &hit) in going.iter().zip(hits.iter()) {
                 self.at_hit(&mut paths[i], hit, stats, &mut scratches[if shared { 0 } else { i }]);
             }
