@@ -29,7 +29,7 @@
 
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::{Vec3, Vec4};
-use crate::photon::KnnResult;
+use crate::photon::{KnnMemory, KnnResult};
 use crate::photon::{photon_chain_reaches, CellAt, Near, OccupancyGrid, PhotonCounts, PhotonsNear, PhotonEmission, PhotonMap};
 use crate::sampling::mis::mis_weight_pair;
 use crate::scene::{Estimator, SurfaceInteraction};
@@ -76,15 +76,57 @@ impl Default for GatherBatch {
     }
 }
 
-/// What [`CausticEstimator::gather`] reuses from one query to the next: the k-NN result (with the recent
-/// queries its warm start reads) and the batch buffer (2.5 KiB, zeroed once here rather than once per query:
-/// a query reads only the entries it wrote). One per tile, so results do not depend on which queries a
-/// thread made before.
+/// What the gather's searches need besides their inputs, in two parts:
+/// - `buffers` ([`GatherBuffers`]): the k-NN result and the batch buffer, which carry nothing from one
+///   query to the next; one per tile;
+/// - `memory` ([`GatherMemory`]): the recent searches, which the warm start and the roulette's bound read;
+///   the render keeps one per pixel, so that a pixel's searches follow one another as they would alone.
+pub struct GatherScratch<'a> {
+    pub buffers: &'a mut GatherBuffers,
+    pub memory: &'a mut GatherMemory,
+}
+
+impl<'a> GatherScratch<'a> {
+    #[must_use]
+    pub fn new(buffers: &'a mut GatherBuffers, memory: &'a mut GatherMemory) -> Self {
+        GatherScratch { buffers, memory }
+    }
+}
+
+/// Buffers and memory owned together: the scratch of one path at a time ([`GatherState::scratch`]).
 #[derive(Clone, Debug, Default)]
-pub struct GatherScratch {
+pub struct GatherState {
+    pub buffers: GatherBuffers,
+    pub memory: GatherMemory,
+}
+
+impl GatherState {
+    pub fn scratch(&mut self) -> GatherScratch<'_> {
+        GatherScratch { buffers: &mut self.buffers, memory: &mut self.memory }
+    }
+}
+
+/// The buffers of [`GatherScratch`]: the k-NN result and the batch buffer (2.5 KiB, zeroed once here
+/// rather than once per query: a query reads only the entries it wrote).
+#[derive(Clone, Debug, Default)]
+pub struct GatherBuffers {
     knn: KnnResult,
     batch: GatherBatch,
-    /// The last leaf bound of [`CausticEstimator::estimate_bound`].
+}
+
+impl GatherBuffers {
+    /// The last search's squared radius ([`KnnResult::r2`]).
+    #[must_use]
+    pub fn knn_r2(&self) -> f32 {
+        self.knn.r2()
+    }
+}
+
+/// The memory of [`GatherScratch`]: the recent searches ([`KnnMemory`]) and the last leaf bound of
+/// [`CausticEstimator::estimate_bound`]. Small and `Copy` (~190 bytes), so each pixel keeps its own.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GatherMemory {
+    knn: KnnMemory,
     leaf_bound: Option<LeafBound>,
 }
 
@@ -375,7 +417,7 @@ impl<'a> CausticEstimator<'a> {
     /// pixel's mean, for a pixel's first sample its neighbour's). 1 where `L` is 0 and where no bound is
     /// known. `scratch` is the one the estimate would use (its recent queries bound the radius).
     #[must_use]
-    pub fn gather_probability(&self, rx: &Receiver, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch) -> f32 {
+    pub fn gather_probability(&self, rx: &Receiver, beta: Vec3, collected: Vec3, scratch: &mut GatherScratch<'_>) -> f32 {
         let budget = GATHER_ROULETTE_KAPPA * collected.max_element() / beta.max_element();
         if !(budget > 0.0) || budget == f32::INFINITY {
             return 1.0;
@@ -402,7 +444,7 @@ impl<'a> CausticEstimator<'a> {
     /// 5. where `0 < r_lo`: the grid's photons, with ΔA that of `r_lo`.
     /// `None` where none applies (no recent query near `x`, and k photons or more may be within reach).
     #[must_use]
-    pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch) -> Option<f32> {
+    pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch<'_>) -> Option<f32> {
         let map = self.map?;
         let Receiver { si, bsdf, wo_world, wo_local, near, .. } = *rx;
         let mirror = si.frame.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z));
@@ -427,16 +469,16 @@ impl<'a> CausticEstimator<'a> {
             }
         }
         // The margins cover the rounding of the recent radii and distances (as the warm start's does).
-        let (r_lo, r_hi) = scratch.knn.radius_bounds(si.p, self.knn, acceptance_key(si.ng, wo_world.dot(si.ng) > 0.0));
+        let (r_lo, r_hi) = scratch.memory.knn.radius_bounds(si.p, self.knn, acceptance_key(si.ng, wo_world.dot(si.ng) > 0.0));
         let area_lo = || self.estimate_area(r_lo * r_lo * (1.0 - 1.0 / 65536.0), si.p).1;
         if r_lo > 0.0 && r_hi < self.max_radius {
             let r_hi = r_hi * (1.0 + 1.0 / 65536.0);
-            let leaves = match scratch.leaf_bound {
+            let leaves = match scratch.memory.leaf_bound {
                 Some(b) if b.p.distance(si.p) + r_hi <= b.radius => b,
                 _ => {
                     let radius = (LEAF_BOUND_REACH * r_hi).min(self.max_radius);
                     let near = map.tree().bound_within(si.p, radius);
-                    *scratch.leaf_bound.insert(LeafBound { p: si.p, radius, power: near.power, lo: near.lo, hi: near.hi })
+                    *scratch.memory.leaf_bound.insert(LeafBound { p: si.p, radius, power: near.power, lo: near.lo, hi: near.hi })
                 }
             };
             return Some(bound(leaves.power, leaves.lo, leaves.hi, area_lo()));
@@ -464,10 +506,10 @@ impl<'a> CausticEstimator<'a> {
     /// Kept out of line (fat LTO had inlined it into `PathTracer::li`), so that callgrind's
     /// `--toggle-collect` (`scripts/bench-instructions`) and perf can name its cost; one call per search.
     #[inline(never)]
-    pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch) -> Gather {
+    pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch<'_>) -> Gather {
         let Receiver { si, bsdf, wo_world, wo_local, cell, .. } = *rx;
-        let GatherScratch { knn, batch, .. } = scratch;
-        let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), knn);
+        let GatherBuffers { knn, batch } = &mut *scratch.buffers;
+        let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), &mut scratch.memory.knn, knn);
         let (Some(map), Some(r2)) = (self.map, searched) else {
             return Gather { l1: Vec3::ZERO, delta_area, photons: 0, q1: Q1Range::default() };
         };
@@ -532,26 +574,26 @@ impl<'a> CausticEstimator<'a> {
     /// (unread without one). `r²` is `None` when `knn` was not written:
     /// without a photon map (ΔA is then the floor at `p`), and where no photon lies within `max_radius` (the
     /// occupancy grid's answer for one memory read; ΔA is then that of `r = max_radius`).
-    fn search(&self, p: Vec3, cell: CellAt, ng: Vec3, wo_side: f32, knn: &mut KnnResult) -> (f32, Option<f32>) {
+    fn search(&self, p: Vec3, cell: CellAt, ng: Vec3, wo_side: f32, memory: &mut KnnMemory, knn: &mut KnnResult) -> (f32, Option<f32>) {
         let Some(map) = self.map else { return (self.min_area(p), None) };
         let near = self.occupancy.as_ref().map_or(Near::Tree, |grid| grid.near_in(cell));
         if near == Near::Empty {
             return (self.estimate_area(self.max_radius * self.max_radius, p).1, None);
         }
         let decoded = map.tree().decoded();
-        // Warm-started from the recent queries of this tile with the same test (the same ng and side).
+        // Warm-started from the recent queries in `memory` with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
-        map.tree().knn_warm_from(p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, knn);
+        map.tree().knn_warm_from(p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, memory, knn);
         let (r2, delta_area) = self.estimate_area(knn.r2(), p);
         (delta_area, Some(r2))
     }
 
     /// `ΔA(x)` of a vertex whose density estimate was skipped (method.md §3.1): the same search as
     /// [`CausticEstimator::gather`]'s, so the same area the estimate would have used.
-    pub fn area_at(&self, p: Vec3, ng: Vec3, wo_side: f32, scratch: &mut GatherScratch) -> f32 {
+    pub fn area_at(&self, p: Vec3, ng: Vec3, wo_side: f32, scratch: &mut GatherScratch<'_>) -> f32 {
         let cell = self.occupancy.as_ref().map_or(CellAt::NotFinite, |grid| grid.cell_at(p));
-        self.search(p, cell, ng, wo_side, &mut scratch.knn).0
+        self.search(p, cell, ng, wo_side, &mut scratch.memory.knn, &mut scratch.buffers.knn).0
     }
 
     /// The squared radius `s·r²_kNN` of the estimate at `x` and its area ΔA (clamped, method.md §3, §6).
@@ -567,7 +609,7 @@ impl<'a> CausticEstimator<'a> {
     /// When `x` skipped its estimate, `mis` runs the search for ΔA here ([`CausticEstimator::area_at`]) and
     /// counts it in `area_queries`.
     #[must_use]
-    pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32, q1_seen: &mut Q1Range, area_queries: &mut u64, scratch: &mut GatherScratch) -> f32 {
+    pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32, q1_seen: &mut Q1Range, area_queries: &mut u64, scratch: &mut GatherScratch<'_>) -> f32 {
         if self.map.is_none() || !photon_chain_reaches(delta_vertices) || pdf_emit.is_nan() || pdf_emit <= 0.0 {
             return 1.0;
         }
@@ -611,7 +653,7 @@ mod tests {
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
         let mut sum = 0.0f64;
         let mut worst_area = 0.0f32;
-        let mut scratch = GatherScratch::default();
+        let mut state = GatherState::default();
         for map_index in 0..maps {
             let photons: Vec<Photon> = (0..m)
                 .map(|i| {
@@ -625,8 +667,8 @@ mod tests {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
                 let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
-                let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut scratch);
-                worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * scratch.knn.r2()).abs() / g.delta_area);
+                let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+                worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * state.buffers.knn_r2()).abs() / g.delta_area);
                 sum += f64::from(g.l1.x);
             }
         }
@@ -694,12 +736,12 @@ mod tests {
         with_outlier.push(Photon::new(Vec3::new(500.0, 0.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0));
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
         let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
-        let mut scratch = GatherScratch::default();
+        let mut state = GatherState::default();
         let mut estimate = |photons: Vec<Photon>| {
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
             let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 1.0, 1.0);
-            let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut scratch);
-            let knn_area = std::f32::consts::PI * scratch.knn.r2();
+            let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+            let knn_area = std::f32::consts::PI * state.buffers.knn_r2();
             assert!(knn_area < 1e-7 && g.delta_area == knn_area, "ΔA {} clamped above the k-NN area {knn_area}", g.delta_area);
             g.l1.x
         };
@@ -758,15 +800,15 @@ mod tests {
         let map = plane_map(4000);
         let est = CausticEstimator::new(Estimator::Mis, Some(&map), 20, 0.2, 1.0);
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
-        let (mut gather_scratch, mut area_scratch) = (GatherScratch::default(), GatherScratch::default());
+        let (mut gather_state, mut area_state) = (GatherState::default(), GatherState::default());
         let mut s = Sampler::for_key(22, 0, 0);
         let (mut full, mut partial, mut empty) = (0, 0, 0);
         for _ in 0..3000 {
             let u = s.next_2d();
             let si = plane_point(Vec3::new(3.0 * u.x - 1.5, 3.0 * u.y - 1.5, 0.0));
             let wo = if s.next_1d() < 0.1 { -Vec3::Z } else { Vec3::Z };
-            let g = est.gather(&vertex(&est, &si, &bsdf, wo), 1.0, &mut gather_scratch);
-            let area = est.area_at(si.p, si.ng, wo.dot(si.ng), &mut area_scratch);
+            let g = est.gather(&vertex(&est, &si, &bsdf, wo), 1.0, &mut gather_state.scratch());
+            let area = est.area_at(si.p, si.ng, wo.dot(si.ng), &mut area_state.scratch());
             assert_eq!(g.delta_area.to_bits(), area.to_bits(), "{}: estimate's ΔA {} but deferred {area}", si.p, g.delta_area);
             match g.photons {
                 20 => full += 1,
@@ -793,8 +835,8 @@ mod tests {
         let beta = Vec3::new(0.2, 0.8, 0.4);
         // c = 0.8·(0.5/π)·Φ/(π r²).
         let c = 0.8 * (0.5 / std::f32::consts::PI) * near.power / (std::f32::consts::PI * max_radius * max_radius);
-        let mut scratch = GatherScratch::default();
-        let mut p = |collected: Vec3| est.gather_probability(&vertex(&est, &si, &bsdf, Vec3::Z), beta, collected, &mut scratch);
+        let mut state = GatherState::default();
+        let mut p = |collected: Vec3| est.gather_probability(&vertex(&est, &si, &bsdf, Vec3::Z), beta, collected, &mut state.scratch());
         assert_eq!(p(Vec3::ZERO), 1.0);
         assert_eq!(p(Vec3::new(0.0, c * 0.5 / GATHER_ROULETTE_KAPPA, 0.0)), 1.0);
         let half = p(Vec3::new(0.0, 0.0, 2.0 * c / GATHER_ROULETTE_KAPPA));
@@ -802,10 +844,10 @@ mod tests {
         assert_eq!(p(Vec3::splat(1e6 * c)), GATHER_MIN_PROBABILITY);
         // No photon near: the estimate is 0, P the least.
         let far = plane_point(Vec3::new(5.0, 5.0, 0.0));
-        assert_eq!(est.estimate_bound(&vertex(&est, &far, &bsdf, Vec3::Z), &mut scratch), Some(0.0));
-        assert_eq!(est.gather_probability(&vertex(&est, &far, &bsdf, Vec3::Z), beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.estimate_bound(&vertex(&est, &far, &bsdf, Vec3::Z), &mut state.scratch()), Some(0.0));
+        assert_eq!(est.gather_probability(&vertex(&est, &far, &bsdf, Vec3::Z), beta, Vec3::ONE, &mut state.scratch()), GATHER_MIN_PROBABILITY);
         // A BSDF that reflects nothing toward the photons: the estimate is 0, P is the least.
-        assert_eq!(est.gather_probability(&vertex(&est, &si, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, Vec3::Z), beta, Vec3::ONE, &mut scratch), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.gather_probability(&vertex(&est, &si, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, Vec3::Z), beta, Vec3::ONE, &mut state.scratch()), GATHER_MIN_PROBABILITY);
         // A sharp GGX lobe: the bound takes f toward the photons' directions (all straight down, +z), not at
         // its peak. Seen along the normal the peak is where the photons arrive from: P = 1. Seen from 60°
         // off the normal, f toward +z is the lobe's tail, far below its peak, and so is P.
@@ -820,8 +862,8 @@ mod tests {
         assert!(tail.x < 1e-4 * peak.x, "tail {tail}, peak {peak}");
         let c_tail = 0.8 * tail.x * near.power / (std::f32::consts::PI * max_radius * max_radius);
         let budget = 2.0 * c_tail / GATHER_ROULETTE_KAPPA;
-        let along = est.gather_probability(&vertex(&est, &si, &glossy, Vec3::Z), beta, Vec3::splat(budget), &mut scratch);
-        let from_60 = est.gather_probability(&vertex(&est, &si, &glossy, oblique), beta, Vec3::splat(budget), &mut scratch);
+        let along = est.gather_probability(&vertex(&est, &si, &glossy, Vec3::Z), beta, Vec3::splat(budget), &mut state.scratch());
+        let from_60 = est.gather_probability(&vertex(&est, &si, &glossy, oblique), beta, Vec3::splat(budget), &mut state.scratch());
         assert_eq!(along, 1.0);
         assert!((from_60 - 0.5).abs() < 0.05, "P = {from_60}, expected about 1/2");
     }
@@ -837,21 +879,21 @@ mod tests {
         let (map, mut s) = hemisphere_plane_map(m, 23, |_| Vec3::ONE);
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.5, 1.0);
         let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
-        let mut scratch = GatherScratch::default();
+        let mut state = GatherState::default();
         let p0 = plane_point(Vec3::new(0.3, 0.1, 0.0));
         assert!(!est.occupancy.as_ref().unwrap().photons_near(p0.p).unwrap().fewer_than(20));
-        assert_eq!(est.estimate_bound(&vertex(&est, &p0, &bsdf, Vec3::Z), &mut scratch), None);
-        assert_eq!(est.gather_probability(&vertex(&est, &p0, &bsdf, Vec3::Z), Vec3::ONE, Vec3::splat(1e6), &mut scratch), 1.0);
-        let first = est.gather(&vertex(&est, &p0, &bsdf, Vec3::Z), 1.0, &mut scratch);
-        let r0 = scratch.knn.r2().sqrt();
+        assert_eq!(est.estimate_bound(&vertex(&est, &p0, &bsdf, Vec3::Z), &mut state.scratch()), None);
+        assert_eq!(est.gather_probability(&vertex(&est, &p0, &bsdf, Vec3::Z), Vec3::ONE, Vec3::splat(1e6), &mut state.scratch()), 1.0);
+        let first = est.gather(&vertex(&est, &p0, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+        let r0 = state.buffers.knn_r2().sqrt();
         let (mut worst, mut at) = (0.0f32, p0.p);
         for i in 0..400 {
             // A walk in steps of up to a tenth of the k-NN radius, as a pixel's samples hit, kept in [−½, ½]².
             let u = s.next_2d();
             at = (at + 0.1 * r0 * Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0)).clamp(Vec3::splat(-0.5), Vec3::splat(0.5));
             let x = plane_point(at);
-            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut scratch).expect("a recent query is near");
-            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut scratch);
+            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut state.scratch()).expect("a recent query is near");
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
             assert!(c >= g.l1.max_element() * (1.0 - 1e-5), "query {i} at {}: bound {c} below the estimate {}", x.p, g.l1);
             worst = worst.max(c / g.l1.max_element());
         }
@@ -877,9 +919,9 @@ mod tests {
             }
             sparse += 1;
             // A fresh scratch: no recent query near.
-            let mut scratch = GatherScratch::default();
-            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut scratch);
-            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut scratch);
+            let mut state = GatherState::default();
+            let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut state.scratch());
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
             if let Some(c) = c {
                 bounded += 1;
                 assert!(g.photons < 20, "point {i}: a bound where {} photons were found", g.photons);

@@ -24,5 +24,5 @@
 pub mod caustic;
 pub mod path;
 
-pub use caustic::{CausticEstimator, CausticOrigin, Gather, GatherScratch, LookedUp, OriginArea, Q1Range};
+pub use caustic::{CausticEstimator, CausticOrigin, Gather, GatherBuffers, GatherMemory, GatherScratch, GatherState, LookedUp, OriginArea, Q1Range};
 pub use path::{EyePath, PathStats, PathTracer, Wave};

@@ -9,7 +9,7 @@
 //! call, and [`PathTracer::trace_wave`], many paths whose rays go to the backend in batches
 //! (ARCHITECTURE.md, "The path tracer's waves").
 
-use super::caustic::{CausticEstimator, CausticOrigin, GatherScratch, LookedUp, OriginArea, Q1Range};
+use super::caustic::{CausticEstimator, CausticOrigin, GatherBuffers, GatherMemory, GatherScratch, LookedUp, OriginArea, Q1Range};
 use crate::accel::{Accel, Hit};
 use crate::bsdf::TransportMode;
 use crate::light::Light;
@@ -171,7 +171,7 @@ impl<'a> PathTracer<'a> {
     /// found (0 for emitters without photons; evaluated only for `x S⁺ L`).
     /// `stats`: where T2's q₁ and its searches for ΔA are recorded; `scratch`: the path's, for those searches.
     #[allow(clippy::too_many_arguments)]
-    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, stats: &mut PathStats, scratch: &mut GatherScratch) -> f32 {
+    fn emission_weight(&self, prev: Vertex, caustic: Option<&CausticOrigin>, light_pdf_w: impl FnOnce() -> f32, pdf_emit: impl FnOnce() -> f32, delta_vertices: u32, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) -> f32 {
         match prev {
             Vertex::Camera => 1.0,
             Vertex::NonDelta { pdf_w, .. } => power_heuristic(pdf_w, light_pdf_w()),
@@ -184,7 +184,7 @@ impl<'a> PathTracer<'a> {
 
     /// Whether a path reads what earlier paths found: with a photon map the gather's roulette (method.md
     /// §3.1) reads the pixel's earlier samples (`pixel_mean`) and the recent searches of its scratch
-    /// (`GatherScratch`); without one, paths are independent.
+    /// (`GatherMemory`); without one, paths are independent.
     #[must_use]
     pub fn reads_earlier_samples(&self) -> bool {
         self.caustics.active()
@@ -195,7 +195,7 @@ impl<'a> PathTracer<'a> {
     /// gives the mean of the pixel's earlier samples, for its first sample the previous pixel's first
     /// sample's radiance; method.md §3.1). The same path, number for number, as [`PathTracer::trace_wave`]
     /// traces it with the same scratch.
-    pub fn li(&self, ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch) -> Vec3 {
+    pub fn li(&self, ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) -> Vec3 {
         let mut path = EyePath::new(ray, sampler.clone(), pixel_mean);
         while !path.done {
             stats.rays += 1;
@@ -218,12 +218,12 @@ impl<'a> PathTracer<'a> {
     /// still going in one [`Accel::intersect_many`], then their shadow rays in one
     /// [`Accel::occluded_many`] (Embree's packets; ARCHITECTURE.md, "The path tracer's waves"). Each path
     /// draws the same numbers and makes the same computations as [`PathTracer::li`] would, given the same
-    /// caustic scratch: `scratches` holds one for all the paths, or one per path (the gather's roulette
-    /// reads its recent searches; [`PathTracer::reads_earlier_samples`]). The radiance of `paths[i]` is
-    /// [`EyePath::radiance`].
-    pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, scratches: &mut [GatherScratch]) {
-        assert!(scratches.len() == 1 || scratches.len() == paths.len(), "one scratch, or one per path");
-        let shared = scratches.len() == 1;
+    /// caustic scratch: the paths share `buffers`, and `memories` holds one memory of recent searches for
+    /// all of them, or one per path (the gather's roulette reads it; [`PathTracer::reads_earlier_samples`]).
+    /// The radiance of `paths[i]` is [`EyePath::radiance`].
+    pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, buffers: &mut GatherBuffers, memories: &mut [GatherMemory]) {
+        assert!(memories.len() == 1 || memories.len() == paths.len(), "one memory, or one per path");
+        let shared = memories.len() == 1;
         let Wave { going, rays, hits, occluded } = wave;
         going.clear();
         going.extend((0..paths.len()).filter(|&i| !paths[i].done));
@@ -236,7 +236,7 @@ impl<'a> PathTracer<'a> {
             self.accel.intersect_many(rays, hits);
             self.scene.warm_shading(hits);
             for (&i, &hit) in going.iter().zip(hits.iter()) {
-                self.at_hit(&mut paths[i], hit, stats, &mut scratches[if shared { 0 } else { i }]);
+                self.at_hit(&mut paths[i], hit, stats, &mut GatherScratch::new(buffers, &mut memories[if shared { 0 } else { i }]));
             }
             going.retain(|&i| !paths[i].done);
             rays.clear();
@@ -248,7 +248,7 @@ impl<'a> PathTracer<'a> {
             let mut answers = occluded.iter();
             for &i in going.iter() {
                 let answer = paths[i].shadow.is_some().then(|| *answers.next().expect("one answer per shadow ray"));
-                self.after_shadow(&mut paths[i], answer, stats, &mut scratches[if shared { 0 } else { i }]);
+                self.after_shadow(&mut paths[i], answer, stats, &mut GatherScratch::new(buffers, &mut memories[if shared { 0 } else { i }]));
             }
             going.retain(|&i| !paths[i].done);
         }
@@ -257,7 +257,7 @@ impl<'a> PathTracer<'a> {
     /// A path's closest hit (or escape): the emission it finds, and at a vertex that continues, the
     /// next-event estimate's light sample and shadow ray (`path.shadow`). Marks the path done where it
     /// ends.
-    fn at_hit(&self, path: &mut EyePath, hit: Option<Hit>, stats: &mut PathStats, scratch: &mut GatherScratch) {
+    fn at_hit(&self, path: &mut EyePath, hit: Option<Hit>, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) {
         let scene = self.scene;
         let lights = &scene.lights;
         let (dir, beta, prev, delta_vertices) = (path.dir, path.beta, path.prev, path.delta_vertices);
@@ -338,7 +338,7 @@ impl<'a> PathTracer<'a> {
 
     /// The rest of the vertex `at_hit` left pending, given whether its shadow ray was occluded (`None`
     /// without one): the next-event estimate, T1, BSDF sampling, Russian roulette and the next ray.
-    fn after_shadow(&self, path: &mut EyePath, occluded: Option<bool>, stats: &mut PathStats, scratch: &mut GatherScratch) {
+    fn after_shadow(&self, path: &mut EyePath, occluded: Option<bool>, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) {
         let PendingVertex { si, wo_world, wo_local, looked_up } = path.vertex.take().expect("at_hit left a vertex");
         if let (Some((_, nee)), Some(false)) = (path.shadow.take(), occluded) {
             path.l += nee;

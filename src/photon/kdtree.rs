@@ -240,16 +240,22 @@ pub struct Neighbor {
 }
 
 /// The result of a k-NN query, reusable across queries (its buffer is kept, so steady-state queries do not
-/// allocate). Create one per thread with [`KnnResult::default`] (one per tile where results must not depend
-/// on which queries a thread made before: [`KdTree::knn_warm`] remembers recent queries here).
+/// allocate). Create one per thread with [`KnnResult::default`]: it carries nothing from one query to the
+/// next (what a warm start reads is in a [`KnnMemory`]).
 #[derive(Clone, Debug, Default)]
 pub struct KnnResult {
     /// A 4-ary max-heap on `dist2` while searching; arbitrary order after [`KnnResult::sort_by_distance`].
     heap: Vec<Neighbor>,
     r2: f32,
-    /// The last [`RECENT`] queries of [`KdTree::knn_warm`] (a ring).
+}
+
+/// What [`KdTree::knn_warm`] remembers of the last [`RECENT`] queries (a ring), and reads to bound the next
+/// one's radius. Small and `Copy` (136 bytes), apart from the result buffer: keep one wherever results must
+/// not depend on which queries were made elsewhere (the render keeps one per pixel).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KnnMemory {
     recent: [Recent; RECENT],
-    next_recent: usize,
+    next: usize,
 }
 
 /// Remembered queries of [`KdTree::knn_warm`]. Eye paths of one pixel hit nearby points, but a path's
@@ -274,6 +280,26 @@ impl Default for Recent {
     }
 }
 
+impl KnnMemory {
+    /// Bounds `(lo, hi)` on the distance from `p` to its k-th nearest photon under the acceptance test named
+    /// `key`, from the remembered queries of [`KdTree::knn_warm`] with the same `k` and `key` (the triangle
+    /// inequality: a query at `p₀` found its k-th at `r₀`, so `r₀ − |p − p₀| ≤ r_k(p) ≤ r₀ + |p − p₀|`);
+    /// `(−∞, ∞)` without one. Up to f32 rounding of the distances (a relative 10⁻⁷).
+    #[must_use]
+    pub fn radius_bounds(&self, p: Vec3, k: usize, key: u64) -> (f32, f32) {
+        self.recent.iter().filter(|r| r.k == k && r.key == key).fold((f32::NEG_INFINITY, f32::INFINITY), |(lo, hi), r| {
+            let d = r.p.distance(p);
+            (lo.max(r.r - d), hi.min(r.r + d))
+        })
+    }
+
+    /// Remembers the query at `p` (`k`, `key`) whose k-th photon lies at `r`, in place of the oldest.
+    fn remember(&mut self, p: Vec3, r: f32, k: usize, key: u64) {
+        self.recent[self.next] = Recent { p, r, k, key };
+        self.next = (self.next + 1) % RECENT;
+    }
+}
+
 impl KnnResult {
     /// Number of accepted photons found (≤ k).
     #[must_use]
@@ -289,18 +315,6 @@ impl KnnResult {
     /// Squared search radius r² (method.md §3): the squared distance to the k-th accepted photon, or
     /// `max_radius²` if fewer than k were found (also for an empty map or a non-finite query point), and 0
     /// for k = 0. May be 0 when photons coincide with the query: the caller clamps ΔA = πr².
-    /// Bounds `(lo, hi)` on the distance from `p` to its k-th nearest photon under the acceptance test named
-    /// `key`, from the remembered queries of [`KdTree::knn_warm`] with the same `k` and `key` (the triangle
-    /// inequality: a query at `p₀` found its k-th at `r₀`, so `r₀ − |p − p₀| ≤ r_k(p) ≤ r₀ + |p − p₀|`);
-    /// `(−∞, ∞)` without one. Up to f32 rounding of the distances (a relative 10⁻⁷).
-    #[must_use]
-    pub fn radius_bounds(&self, p: Vec3, k: usize, key: u64) -> (f32, f32) {
-        self.recent.iter().filter(|r| r.k == k && r.key == key).fold((f32::NEG_INFINITY, f32::INFINITY), |(lo, hi), r| {
-            let d = r.p.distance(p);
-            (lo.max(r.r - d), hi.min(r.r + d))
-        })
-    }
-
     #[must_use]
     pub fn r2(&self) -> f32 {
         self.r2
@@ -561,7 +575,7 @@ impl KdTree {
         self.knn_bounded(p, k, max_radius, None, SearchFrom::Root, &accept, out);
     }
 
-    /// [`KdTree::knn_by_index`] warm-started from the recent queries kept in `out` with the same `k` and
+    /// [`KdTree::knn_by_index`] warm-started from the recent queries `memory` holds with the same `k` and
     /// the same acceptance test, which the caller names by `key` (a key shared by two tests costs reruns,
     /// never exactness). A recent query that found k photons within `r` of `p₀` bounds this one's radius by
     /// `r + |p − p₀|`
@@ -570,9 +584,10 @@ impl KdTree {
     /// the heap. The result is the exact k-NN whatever the bound: if k accepted photons lie within it,
     /// the k nearest do too; if fewer do (rounding, or a `key` reused for another test), the search runs
     /// again from `max_radius`. Only the order of the neighbours in the heap (and which of equidistant
-    /// photons at the k-th distance is kept) depends on the bound.
-    pub fn knn_warm<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, out: &mut KnnResult) {
-        self.knn_warm_from(p, k, max_radius, key, SearchFrom::Root, accept, out);
+    /// photons at the k-th distance is kept) depends on the bound. The query is then remembered in `memory`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn knn_warm<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, accept: F, memory: &mut KnnMemory, out: &mut KnnResult) {
+        self.knn_warm_from(p, k, max_radius, key, SearchFrom::Root, accept, memory, out);
     }
 
     /// The ids of the leaves whose boxes come within `reach` of the box `[min, max]` along every axis (a
@@ -603,8 +618,8 @@ impl KdTree {
     /// [`crate::photon::OccupancyGrid::near`] gives). The result is the same exact k-NN (ties aside);
     /// the leaves are scanned in the list's order, each skipped when its box lies beyond the current limit.
     #[allow(clippy::too_many_arguments)]
-    pub fn knn_warm_from<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, from: SearchFrom<'_>, accept: F, out: &mut KnnResult) {
-        let bound = out.radius_bounds(p, k, key).1;
+    pub fn knn_warm_from<F: Fn(usize) -> bool + Copy>(&self, p: Vec3, k: usize, max_radius: f32, key: u64, from: SearchFrom<'_>, accept: F, memory: &mut KnnMemory, out: &mut KnnResult) {
+        let bound = memory.radius_bounds(p, k, key).1;
         // Rounding of r and of the distance could put one of the k photons just outside: a relative margin
         // of 2⁻¹⁶ (far above f32's error, far below what would matter for pruning) makes a rerun rare.
         let bound2 = bound * bound * (1.0 + 1.0 / 65536.0);
@@ -614,8 +629,7 @@ impl KdTree {
             self.knn_bounded(p, k, max_radius, None, from, accept, out);
         }
         if k > 0 && p.is_finite() && max_radius.is_finite() {
-            out.recent[out.next_recent] = Recent { p, r: out.r2.sqrt(), k, key };
-            out.next_recent = (out.next_recent + 1) % RECENT;
+            memory.remember(p, out.r2.sqrt(), k, key);
         }
     }
 
@@ -956,7 +970,7 @@ mod tests {
             .collect();
         let t = KdTree::build(photons).unwrap();
         let dirs = t.decoded();
-        let (mut warm, mut cold) = (KnnResult::default(), KnnResult::default());
+        let (mut warm, mut cold, mut memory) = (KnnResult::default(), KnnResult::default(), KnnMemory::default());
         let mut q = Vec3::ZERO;
         for i in 0..3000 {
             q += Vec3::new(s.next_1d() - 0.5, 0.02 * (s.next_1d() - 0.5), s.next_1d() - 0.5) * 0.05;
@@ -967,7 +981,7 @@ mod tests {
             let accept = move |j: usize| (dirs[j].wi.y > 0.0) == above;
             // Key 7 for both tests on purpose: the bound of one may hold too few photons of the other.
             let (k, r) = if i % 7 == 0 { (8, 0.05) } else { (50, 0.4) };
-            t.knn_warm(q, k, r, 7, accept, &mut warm);
+            t.knn_warm(q, k, r, 7, accept, &mut memory, &mut warm);
             t.knn_by_index(q, k, r, accept, &mut cold);
             let sorted = |o: &KnnResult| {
                 let mut d: Vec<u32> = o.neighbors().iter().map(|n| n.dist2.to_bits()).collect();

@@ -10,7 +10,7 @@ pub mod kdtree;
 pub mod occupancy;
 pub mod record;
 
-pub use kdtree::{KdTree, KdTreeError, KnnResult, LeavesNear, Neighbor, SearchFrom};
+pub use kdtree::{KdTree, KdTreeError, KnnMemory, KnnResult, LeavesNear, Neighbor, SearchFrom};
 pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
 pub use counts::PhotonCounts;

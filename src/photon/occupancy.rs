@@ -348,7 +348,7 @@ fn index_in(dims: [usize; 3], c: [usize; 3]) -> Option<usize> {
 mod tests {
     use super::*;
     use crate::photon::dirbox::DIR_STEPS;
-    use crate::photon::kdtree::KnnResult;
+    use crate::photon::kdtree::{KnnMemory, KnnResult};
     use crate::photon::Photon;
     use crate::sampler::Sampler;
 
@@ -475,7 +475,7 @@ mod tests {
             let tree = KdTree::build(photons).unwrap();
             let grid = OccupancyGrid::new(&tree, radius).unwrap();
             let dirs = tree.decoded();
-            let (mut from_cell, mut from_root) = (KnnResult::default(), KnnResult::default());
+            let (mut from_cell, mut from_root, mut memory) = (KnnResult::default(), KnnResult::default(), KnnMemory::default());
             let (mut lists, mut walks) = (0, 0);
             for i in 0..20_000 {
                 let q = Vec3::new(4.4 * s.next_1d() - 2.2, 2.4 * s.next_1d() - 0.2, 4.4 * s.next_1d() - 2.2);
@@ -490,7 +490,7 @@ mod tests {
                     Near::Tree => walks += 1,
                     Near::Empty => {}
                 }
-                tree.knn_warm_from(q, k, radius, u64::from(above), near.search_from(), accept, &mut from_cell);
+                tree.knn_warm_from(q, k, radius, u64::from(above), near.search_from(), accept, &mut memory, &mut from_cell);
                 tree.knn_by_index(q, k, radius, accept, &mut from_root);
                 let sorted = |o: &KnnResult| {
                     let mut d: Vec<u32> = o.neighbors().iter().map(|n| n.dist2.to_bits()).collect();
