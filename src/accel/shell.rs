@@ -234,13 +234,11 @@ impl Shelled {
     }
 }
 
-impl Accel for Shelled {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let near = if self.near_bounds.may_intersect(ray) {
-            self.near.intersect(ray).map(|h| Hit { prim: self.near_ids[h.prim as usize], ..h })
-        } else {
-            None
-        };
+impl Shelled {
+    /// The closest hit of `ray` given the near backend's answer `near` (in the near backend's ids): the
+    /// far backend is asked only where the ray's part up to the near hit leaves the inner ball.
+    fn with_far(&self, ray: &Ray, near: Option<Hit>) -> Option<Hit> {
+        let near = near.map(|h| Hit { prim: self.near_ids[h.prim as usize], ..h });
         let t_end = near.map_or(ray.t_max, |h| h.t);
         if self.inside(ray, t_end) {
             return near;
@@ -253,8 +251,43 @@ impl Accel for Shelled {
         }
     }
 
+    /// Occlusion of `ray` given whether the near triangles occlude it.
+    fn occluded_with_far(&self, ray: &Ray, near: bool) -> bool {
+        near || (!self.inside(ray, ray.t_max) && self.far.occluded(ray))
+    }
+}
+
+impl Accel for Shelled {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let near = if self.near_bounds.may_intersect(ray) { self.near.intersect(ray) } else { None };
+        self.with_far(ray, near)
+    }
+
     fn occluded(&self, ray: &Ray) -> bool {
-        (self.near_bounds.may_intersect(ray) && self.near.occluded(ray)) || (!self.inside(ray, ray.t_max) && self.far.occluded(ray))
+        self.occluded_with_far(ray, self.near_bounds.may_intersect(ray) && self.near.occluded(ray))
+    }
+
+    /// The near backend's batch where every ray may meet the near triangles (the common case: the
+    /// camera and the paths are inside the scene), else [`Shelled::intersect`]'s test ray by ray; then
+    /// the far backend for the rays that leave the inner ball.
+    fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), out.len());
+        if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
+            self.near.intersect_many(rays, out);
+        } else {
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = if self.near_bounds.may_intersect(ray) { self.near.intersect(ray) } else { None });
+        }
+        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.with_far(ray, *o));
+    }
+
+    fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
+        assert_eq!(rays.len(), out.len());
+        if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
+            self.near.occluded_many(rays, out);
+        } else {
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_bounds.may_intersect(ray) && self.near.occluded(ray));
+        }
+        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded_with_far(ray, *o));
     }
 
     fn name(&self) -> &'static str {
@@ -289,6 +322,7 @@ mod tests {
         let oracle = BruteForce::new(&scene.positions, &scene.indices);
         let mut sampler = crate::sampler::Sampler::for_key(5, 0, 0);
         let mut far_hits = 0;
+        let mut all = Vec::new();
         for _ in 0..2000 {
             let mut v = || 2.0 * sampler.next_1d() - 1.0;
             let origin = Vec3::new(v(), v(), v()) * 1.5;
@@ -298,8 +332,21 @@ mod tests {
                 assert_eq!(shelled.intersect(&ray), want, "{ray:?}");
                 assert_eq!(shelled.occluded(&ray), oracle.occluded(&ray), "{ray:?}");
                 far_hits += usize::from(want.is_some_and(|h| h.prim as usize >= inner));
+                all.push(ray);
             }
         }
         assert!(far_hits > 1000, "{far_hits}");
+        // The batches: rays from inside only (the near backend's batch), and mixed with far origins.
+        let inside: Vec<Ray> = all.iter().step_by(3).copied().collect();
+        for rays in [&inside[..], &all[..]] {
+            let mut hits = vec![None; rays.len()];
+            shelled.intersect_many(rays, &mut hits);
+            let mut occluded = vec![false; rays.len()];
+            shelled.occluded_many(rays, &mut occluded);
+            for ((ray, hit), occ) in rays.iter().zip(&hits).zip(&occluded) {
+                assert_eq!(*hit, oracle.intersect(ray), "{ray:?}");
+                assert_eq!(*occ, oracle.occluded(ray), "{ray:?}");
+            }
+        }
     }
 }
