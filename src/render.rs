@@ -377,8 +377,8 @@ pub fn render_share(
                 let first = if reads {
                     let mut mean = Vec3::ZERO;
                     for (&(x, y), sum) in pixels.iter().zip(&mut sums) {
-                        let (ray, mut sampler) = camera_sample(x, y, spp_done);
-                        let l = tracer.li(ray, &mut sampler, mean, &mut ps, &mut GatherScratch::new(&mut buffers, &mut memory));
+                        let (ray, sampler) = camera_sample(x, y, spp_done);
+                        let l = tracer.li(ray, sampler, mean, &mut ps, &mut GatherScratch::new(&mut buffers, &mut memory));
                         record((x, y), sum, l);
                         if sum.1 > 0 {
                             mean = sum.0;

@@ -190,13 +190,13 @@ impl<'a> PathTracer<'a> {
         self.caustics.active()
     }
 
-    /// Radiance along `ray` (a camera ray), estimated with one path, traced one ray per call.
-    /// `pixel_mean`: a scale the gather's roulette compares its bound with, from other samples (the render
+    /// Radiance along `ray` (a camera ray), estimated with one path drawing from `sampler` (which has drawn
+    /// the pixel position), traced one ray per call. `pixel_mean`: a scale the gather's roulette compares its bound with, from other samples (the render
     /// gives the mean of the pixel's earlier samples, for its first sample the previous pixel's first
     /// sample's radiance; method.md §3.1). The same path, number for number, as [`PathTracer::trace_wave`]
     /// traces it with the same scratch.
-    pub fn li(&self, ray: Ray, sampler: &mut Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) -> Vec3 {
-        let mut path = EyePath::new(ray, sampler.clone(), pixel_mean);
+    pub fn li(&self, ray: Ray, sampler: Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) -> Vec3 {
+        let mut path = EyePath::new(ray, sampler, pixel_mean);
         while !path.done {
             stats.rays += 1;
             let hit = self.accel.intersect(&path.ray);
@@ -210,7 +210,6 @@ impl<'a> PathTracer<'a> {
             });
             self.after_shadow(&mut path, occluded, stats, scratch);
         }
-        *sampler = path.sampler;
         path.l
     }
 

@@ -49,7 +49,7 @@ fn a_wave_traces_each_path_as_li_does() {
                 rays_waved += stats.rays;
                 for ((sampler, ray), path) in starts.iter().zip(&paths) {
                     let mut stats = PathStats::default();
-                    let alone = tracer.li(*ray, &mut sampler.clone(), mean, &mut stats, &mut GatherState::default().scratch());
+                    let alone = tracer.li(*ray, sampler.clone(), mean, &mut stats, &mut GatherState::default().scratch());
                     rays_alone += stats.rays;
                     assert_eq!(alone.to_array().map(f32::to_bits), path.radiance().to_array().map(f32::to_bits), "{name} {kind:?}, wave of {len}: {alone} alone, {} in the wave", path.radiance());
                 }
@@ -86,8 +86,8 @@ fn a_wave_with_a_photon_map_traces_each_path_as_li_does_with_its_own_memory() {
         let memories: Vec<GatherMemory> = pixels
             .iter()
             .map(|&p| {
-                let (ray, mut sampler) = start(p, 0);
-                tracer.li(ray, &mut sampler, Vec3::splat(0.3), &mut PathStats::default(), &mut state.scratch());
+                let (ray, sampler) = start(p, 0);
+                tracer.li(ray, sampler, Vec3::splat(0.3), &mut PathStats::default(), &mut state.scratch());
                 state.memory
             })
             .collect();
@@ -98,9 +98,9 @@ fn a_wave_with_a_photon_map_traces_each_path_as_li_does_with_its_own_memory() {
         tracer.trace_wave(&mut paths, &mut Wave::default(), &mut waved, &mut GatherBuffers::default(), &mut wave_memories);
         let mut alone_stats = PathStats::default();
         for ((&p, memory), path) in pixels.iter().zip(&memories).zip(&paths) {
-            let (ray, mut sampler) = start(p, 1);
+            let (ray, sampler) = start(p, 1);
             let mut own = GatherState { memory: *memory, ..GatherState::default() };
-            let alone = tracer.li(ray, &mut sampler, mean, &mut alone_stats, &mut own.scratch());
+            let alone = tracer.li(ray, sampler, mean, &mut alone_stats, &mut own.scratch());
             assert_eq!(alone.to_array().map(f32::to_bits), path.radiance().to_array().map(f32::to_bits), "{name}, pixel {p}: {alone} alone, {} in the wave", path.radiance());
         }
         assert_eq!(alone_stats, waved, "{name}: rays, searches and q1 counted");
