@@ -49,16 +49,27 @@ pub trait Accel: Send + Sync {
     /// answers (the path tracer's wave, `integrator::path`). Embree traces them in packets; other
     /// backends one by one.
     fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
-        assert_eq!(rays.len(), out.len());
-        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray));
+        intersect_each(self, rays, out);
     }
 
     /// Occlusion of a batch of rays, `out[i]` for `rays[i]`, each exactly what [`Accel::occluded`]
     /// answers.
     fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
-        assert_eq!(rays.len(), out.len());
-        out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray));
+        occluded_each(self, rays, out);
     }
+}
+
+/// A batch one ray at a time, `out[i] = accel.intersect(&rays[i])`: [`Accel::intersect_many`]'s default,
+/// and the fallback of a backend whose batch cannot take every ray.
+pub(crate) fn intersect_each<A: Accel + ?Sized>(accel: &A, rays: &[Ray], out: &mut [Option<Hit>]) {
+    assert_eq!(rays.len(), out.len());
+    out.iter_mut().zip(rays).for_each(|(o, ray)| *o = accel.intersect(ray));
+}
+
+/// [`intersect_each`] for occlusion.
+pub(crate) fn occluded_each<A: Accel + ?Sized>(accel: &A, rays: &[Ray], out: &mut [bool]) {
+    assert_eq!(rays.len(), out.len());
+    out.iter_mut().zip(rays).for_each(|(o, ray)| *o = accel.occluded(ray));
 }
 
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).

@@ -252,7 +252,7 @@ impl Accel for Rebased {
         if rays.iter().all(|ray| self.is_near(ray)) {
             self.inner.intersect_many(rays, out);
         } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.intersect(ray));
+            super::intersect_each(self, rays, out);
         }
     }
 
@@ -261,7 +261,7 @@ impl Accel for Rebased {
         if rays.iter().all(|ray| self.is_near(ray)) {
             self.inner.occluded_many(rays, out);
         } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded(ray));
+            super::occluded_each(self, rays, out);
         }
     }
 }

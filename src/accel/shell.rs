@@ -255,16 +255,25 @@ impl Shelled {
     fn occluded_with_far(&self, ray: &Ray, near: bool) -> bool {
         near || (!self.inside(ray, ray.t_max) && self.far.occluded(ray))
     }
+
+    /// The near backend's closest hit (its own ids), asked only of segments that meet the near box.
+    fn near_hit(&self, ray: &Ray) -> Option<Hit> {
+        if self.near_bounds.may_intersect(ray) { self.near.intersect(ray) } else { None }
+    }
+
+    /// Whether the near triangles occlude `ray`, asked only of segments that meet the near box.
+    fn near_occludes(&self, ray: &Ray) -> bool {
+        self.near_bounds.may_intersect(ray) && self.near.occluded(ray)
+    }
 }
 
 impl Accel for Shelled {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let near = if self.near_bounds.may_intersect(ray) { self.near.intersect(ray) } else { None };
-        self.with_far(ray, near)
+        self.with_far(ray, self.near_hit(ray))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_with_far(ray, self.near_bounds.may_intersect(ray) && self.near.occluded(ray))
+        self.occluded_with_far(ray, self.near_occludes(ray))
     }
 
     /// The near backend's batch where every ray may meet the near triangles (the common case: the
@@ -275,7 +284,7 @@ impl Accel for Shelled {
         if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
             self.near.intersect_many(rays, out);
         } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = if self.near_bounds.may_intersect(ray) { self.near.intersect(ray) } else { None });
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_hit(ray));
         }
         out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.with_far(ray, *o));
     }
@@ -285,7 +294,7 @@ impl Accel for Shelled {
         if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
             self.near.occluded_many(rays, out);
         } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_bounds.may_intersect(ray) && self.near.occluded(ray));
+            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_occludes(ray));
         }
         out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded_with_far(ray, *o));
     }

@@ -191,9 +191,9 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Radiance along `ray` (a camera ray), estimated with one path drawing from `sampler` (which has drawn
-    /// the pixel position), traced one ray per call. `pixel_mean`: a scale the gather's roulette compares its bound with, from other samples (the render
-    /// gives the mean of the pixel's earlier samples, for its first sample the previous pixel's first
-    /// sample's radiance; method.md §3.1). The same path, number for number, as [`PathTracer::trace_wave`]
+    /// the pixel position), traced one ray per call. `pixel_mean`: a scale the gather's roulette compares
+    /// its bound with, from other samples (the render gives the mean of the pixel's earlier samples, for
+    /// its first sample the previous pixel's first sample's radiance; method.md §3.1). The same path, number for number, as [`PathTracer::trace_wave`]
     /// traces it with the same scratch.
     pub fn li(&self, ray: Ray, sampler: Sampler, pixel_mean: Vec3, stats: &mut PathStats, scratch: &mut GatherScratch<'_>) -> Vec3 {
         let mut path = EyePath::new(ray, sampler, pixel_mean);
@@ -222,7 +222,9 @@ impl<'a> PathTracer<'a> {
     /// The radiance of `paths[i]` is [`EyePath::radiance`].
     pub fn trace_wave(&self, paths: &mut [EyePath], wave: &mut Wave, stats: &mut PathStats, buffers: &mut GatherBuffers, memories: &mut [GatherMemory]) {
         assert!(memories.len() == 1 || memories.len() == paths.len(), "one memory, or one per path");
+        // Path i's memory.
         let shared = memories.len() == 1;
+        let m = |i: usize| if shared { 0 } else { i };
         let Wave { going, rays, hits, occluded } = wave;
         going.clear();
         going.extend((0..paths.len()).filter(|&i| !paths[i].done));
@@ -235,7 +237,7 @@ impl<'a> PathTracer<'a> {
             self.accel.intersect_many(rays, hits);
             self.scene.warm_shading(hits);
             for (&i, &hit) in going.iter().zip(hits.iter()) {
-                self.at_hit(&mut paths[i], hit, stats, &mut GatherScratch::new(buffers, &mut memories[if shared { 0 } else { i }]));
+                self.at_hit(&mut paths[i], hit, stats, &mut GatherScratch::new(buffers, &mut memories[m(i)]));
             }
             going.retain(|&i| !paths[i].done);
             rays.clear();
@@ -247,7 +249,7 @@ impl<'a> PathTracer<'a> {
             let mut answers = occluded.iter();
             for &i in going.iter() {
                 let answer = paths[i].shadow.is_some().then(|| *answers.next().expect("one answer per shadow ray"));
-                self.after_shadow(&mut paths[i], answer, stats, &mut GatherScratch::new(buffers, &mut memories[if shared { 0 } else { i }]));
+                self.after_shadow(&mut paths[i], answer, stats, &mut GatherScratch::new(buffers, &mut memories[m(i)]));
             }
             going.retain(|&i| !paths[i].done);
         }

@@ -16,7 +16,7 @@ mod sys;
 
 use self::handles::{CommittedScene, Device, Geometry, Scene};
 use self::query::{ensure_ftz_daz, hit_of, rtc_ray, rtc_ray_hit, was_occluded, QueryContext, INVALID_ID};
-use super::{Accel, Hit};
+use super::{intersect_each, occluded_each, Accel, Hit};
 use crate::error::AccelError;
 use crate::math::{Ray, Vec3};
 
@@ -180,7 +180,7 @@ impl EmbreeAccel {
         let mut ctx = QueryContext::new();
         let one = |ray: &Ray| self.intersect(ray);
         match batching {
-            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray)),
+            Batching::Single => intersect_each(self, rays, out),
             Batching::Packet4 => in_packets(4, rays, out, one, |r, o| ctx.intersect4(&self.scene, r, o)),
             Batching::Packet8 => in_packets(8, rays, out, one, |r, o| ctx.intersect8(&self.scene, r, o)),
             Batching::Packet16 => in_packets(16, rays, out, one, |r, o| ctx.intersect16(&self.scene, r, o)),
@@ -200,7 +200,7 @@ impl EmbreeAccel {
         let mut ctx = QueryContext::new();
         let one = |ray: &Ray| self.occluded(ray);
         match batching {
-            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray)),
+            Batching::Single => occluded_each(self, rays, out),
             Batching::Packet4 => in_packets(4, rays, out, one, |r, o| ctx.occluded4(&self.scene, r, o)),
             Batching::Packet8 => in_packets(8, rays, out, one, |r, o| ctx.occluded8(&self.scene, r, o)),
             Batching::Packet16 => in_packets(16, rays, out, one, |r, o| ctx.occluded16(&self.scene, r, o)),
