@@ -140,15 +140,17 @@ pub struct LookedUp {
 }
 
 /// A non-delta eye vertex as the caustic estimators see it, made once per vertex
-/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF, and the
-/// [`LookedUp`] cell.
+/// ([`CausticEstimator::receiver`]): the shading data, ωₒ in both frames, the BSDF prepared at ωₒ, and
+/// the [`LookedUp`] cell.
 #[derive(Clone, Copy, Debug)]
 pub struct Receiver<'s> {
     pub si: &'s SurfaceInteraction,
-    pub bsdf: &'s Bsdf,
     pub wo_world: Vec3,
     /// `si.frame.to_local(wo_world)`.
     pub wo_local: Vec3,
+    /// `bsdf` at `wo_local` with its ωₒ-only work done: the roulette's bound and the density estimate
+    /// both evaluate it (bit for bit `bsdf.f_pdf`), so that work is done once per vertex.
+    at_wo: BsdfAtWo<'s>,
     cell: CellAt,
     near: Option<PhotonsNear>,
 }
@@ -408,7 +410,7 @@ impl<'a> CausticEstimator<'a> {
     pub fn receiver<'s>(&self, si: &'s SurfaceInteraction, bsdf: &'s Bsdf, wo_world: Vec3, wo_local: Vec3, looked_up: LookedUp) -> Receiver<'s> {
         debug_assert!(wo_local.distance(si.frame.to_local(wo_world)) <= 1e-5, "wo_local is not wo_world in the shading frame");
         let LookedUp { cell, near } = looked_up;
-        Receiver { si, bsdf, wo_world, wo_local, cell, near }
+        Receiver { si, wo_world, wo_local, at_wo: BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance), cell, near }
     }
 
     /// The probability with which T1 runs at `x` (method.md §3.1): `P = min(1, max(β)·c/(κ·L))`, at least
@@ -446,7 +448,7 @@ impl<'a> CausticEstimator<'a> {
     #[must_use]
     pub fn estimate_bound(&self, rx: &Receiver, scratch: &mut GatherScratch<'_>) -> Option<f32> {
         let map = self.map?;
-        let Receiver { si, bsdf, wo_world, wo_local, near, .. } = *rx;
+        let Receiver { si, wo_world, wo_local, at_wo, near, .. } = *rx;
         let mirror = si.frame.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z));
         // f toward the point of a box of directions nearest the mirror direction, put on ωₒ's side (the
         // non-delta lobes reflect), times the power, over the area.
@@ -456,7 +458,7 @@ impl<'a> CausticEstimator<'a> {
             }
             let wi = si.frame.to_local(mirror.clamp(lo, hi));
             let wi = Vec3::new(wi.x, wi.y, wi.z.abs().max(1e-3).copysign(wo_local.z)).normalize();
-            bsdf.f_pdf(wo_local, wi, TransportMode::Radiance).0.max_element() * power / area
+            at_wo.f_pdf(wi).0.max_element() * power / area
         };
         // Where the search finds fewer than k photons, its area is that of max_radius.
         let area_max = || self.estimate_area(self.max_radius * self.max_radius, si.p).1;
@@ -507,7 +509,7 @@ impl<'a> CausticEstimator<'a> {
     /// `--toggle-collect` (`scripts/bench-instructions`) and perf can name its cost; one call per search.
     #[inline(never)]
     pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch<'_>) -> Gather {
-        let Receiver { si, bsdf, wo_world, wo_local, cell, .. } = *rx;
+        let Receiver { si, wo_world, at_wo: bsdf_at_wo, cell, .. } = *rx;
         let GatherBuffers { knn, batch } = &mut *scratch.buffers;
         let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), &mut scratch.memory.knn, knn);
         let (Some(map), Some(r2)) = (self.map, searched) else {
@@ -516,8 +518,6 @@ impl<'a> CausticEstimator<'a> {
         // Directions, p_emit and power decoded once per photon at build time (KdTree::decoded): the search
         // tested the direction, and the sum below finds the rest in the same record.
         let decoded = map.tree().decoded();
-        // The BSDF's wo-only work (two-sided mirroring, blend dispatch, R/π, G1(wo)) once per query.
-        let bsdf_at_wo = BsdfAtWo::new(bsdf, wo_local, TransportMode::Radiance);
         let mut sum = Vec3::ZERO;
         let mut used = 0u32;
         let mut q1_range = Q1Range::default();
