@@ -59,17 +59,32 @@ pub trait Accel: Send + Sync {
     }
 }
 
-/// A batch one ray at a time, `out[i] = accel.intersect(&rays[i])`: [`Accel::intersect_many`]'s default,
-/// and the fallback of a backend whose batch cannot take every ray.
-pub(crate) fn intersect_each<A: Accel + ?Sized>(accel: &A, rays: &[Ray], out: &mut [Option<Hit>]) {
+/// A batch one ray at a time, `out[i] = one(&rays[i])`.
+fn each<T>(rays: &[Ray], out: &mut [T], one: impl Fn(&Ray) -> T) {
     assert_eq!(rays.len(), out.len());
-    out.iter_mut().zip(rays).for_each(|(o, ray)| *o = accel.intersect(ray));
+    out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray));
+}
+
+/// A batch one ray at a time, `out[i] = accel.intersect(&rays[i])`: [`Accel::intersect_many`]'s default
+/// (and Embree's one-ray-per-call batching).
+pub(crate) fn intersect_each<A: Accel + ?Sized>(accel: &A, rays: &[Ray], out: &mut [Option<Hit>]) {
+    each(rays, out, |ray| accel.intersect(ray));
 }
 
 /// [`intersect_each`] for occlusion.
 pub(crate) fn occluded_each<A: Accel + ?Sized>(accel: &A, rays: &[Ray], out: &mut [bool]) {
+    each(rays, out, |ray| accel.occluded(ray));
+}
+
+/// A wrapping backend's batch (`Rebased`, `Shelled`): the wrapped backend's `batch` when every ray
+/// `qualifies` for it, else ray by ray by `one`; `out[i]` answers `rays[i]`.
+pub(crate) fn batch_if_all<T>(rays: &[Ray], out: &mut [T], qualifies: impl Fn(&Ray) -> bool, batch: impl FnOnce(&[Ray], &mut [T]), one: impl Fn(&Ray) -> T) {
     assert_eq!(rays.len(), out.len());
-    out.iter_mut().zip(rays).for_each(|(o, ray)| *o = accel.occluded(ray));
+    if rays.iter().all(qualifies) {
+        batch(rays, out);
+    } else {
+        each(rays, out, one);
+    }
 }
 
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).

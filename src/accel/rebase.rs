@@ -248,21 +248,11 @@ impl Accel for Rebased {
 
     /// The backend's batch where every ray is near (the common case), else one ray at a time.
     fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
-        assert_eq!(rays.len(), out.len());
-        if rays.iter().all(|ray| self.is_near(ray)) {
-            self.inner.intersect_many(rays, out);
-        } else {
-            super::intersect_each(self, rays, out);
-        }
+        super::batch_if_all(rays, out, |ray| self.is_near(ray), |r, o| self.inner.intersect_many(r, o), |ray| self.intersect(ray));
     }
 
     fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
-        assert_eq!(rays.len(), out.len());
-        if rays.iter().all(|ray| self.is_near(ray)) {
-            self.inner.occluded_many(rays, out);
-        } else {
-            super::occluded_each(self, rays, out);
-        }
+        super::batch_if_all(rays, out, |ray| self.is_near(ray), |r, o| self.inner.occluded_many(r, o), |ray| self.occluded(ray));
     }
 }
 

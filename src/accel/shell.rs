@@ -280,22 +280,14 @@ impl Accel for Shelled {
     /// camera and the paths are inside the scene), else [`Shelled::intersect`]'s test ray by ray; then
     /// the far backend for the rays that leave the inner ball.
     fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
-        assert_eq!(rays.len(), out.len());
-        if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
-            self.near.intersect_many(rays, out);
-        } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_hit(ray));
-        }
+        let may_meet_near = |ray: &Ray| self.near_bounds.may_intersect(ray);
+        super::batch_if_all(rays, out, may_meet_near, |r, o| self.near.intersect_many(r, o), |ray| self.near_hit(ray));
         out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.with_far(ray, *o));
     }
 
     fn occluded_many(&self, rays: &[Ray], out: &mut [bool]) {
-        assert_eq!(rays.len(), out.len());
-        if rays.iter().all(|ray| self.near_bounds.may_intersect(ray)) {
-            self.near.occluded_many(rays, out);
-        } else {
-            out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.near_occludes(ray));
-        }
+        let may_meet_near = |ray: &Ray| self.near_bounds.may_intersect(ray);
+        super::batch_if_all(rays, out, may_meet_near, |r, o| self.near.occluded_many(r, o), |ray| self.near_occludes(ray));
         out.iter_mut().zip(rays).for_each(|(o, ray)| *o = self.occluded_with_far(ray, *o));
     }
 
