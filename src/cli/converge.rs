@@ -22,7 +22,7 @@ use crate::report::converge::{
 use crate::report::error_log::{progress_text, ErrorTracker};
 use crate::render::RenderSettings;
 use crate::scene::settings::defaults;
-use crate::scene::{Estimator, Scene};
+use crate::scene::{Estimator, LoadOptions, Scene};
 
 /// Arguments of `caustica converge`.
 #[derive(clap::Args, Debug, Clone)]
@@ -121,7 +121,8 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
 
 /// Runs `caustica converge`.
 pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
-    let mut scene = Scene::load_with_params(&args.scene, &args.params.map())?;
+    // The estimators are the command line's: an integrator caustica does not have is replaced.
+    let mut scene = Scene::load_with(&args.scene, &LoadOptions { params: args.params.map(), replace_integrator: true })?;
     args.run.set_resolution(&mut scene)?;
     let (width, height) = (scene.camera.crop().width(), scene.camera.crop().height());
     let base = base_settings(args, &scene);

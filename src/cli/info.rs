@@ -105,6 +105,9 @@ pub fn describe(scene: &Scene) -> String {
         let _ = writeln!(s, "  with pm/mis {}", photon_pass(scene, Estimator::Mis, settings.photons));
     }
     let _ = writeln!(s, "  memory      {}", memory(scene, &settings));
+    for note in &scene.notes {
+        let _ = writeln!(s, "  note        {note}");
+    }
     s
 }
 

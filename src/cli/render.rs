@@ -25,7 +25,7 @@ use crate::render::part::{self, Part, PartInfo};
 use crate::render::{render_share, RenderPhaseStats, RenderSettings, Share, TILE_SIZE};
 use crate::report::error_log::{progress_text, ErrorTracker, PassError};
 use crate::scene::settings::defaults;
-use crate::scene::{Estimator, Scene};
+use crate::scene::{Estimator, LoadOptions, NoteKind, Scene};
 
 /// Arguments of `caustica render`. Command-line values override the scene file.
 #[derive(clap::Args, Debug, Clone)]
@@ -214,6 +214,9 @@ fn check_scenes(args: &RenderArgs) -> anyhow::Result<()> {
 fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
     let t_start = Instant::now();
     let scene = load_scene(args, scene_path)?;
+    if !args.quiet {
+        print_notes(&scene);
+    }
     let settings = settings(args, &scene);
     args.run.check_memory(&scene, &settings)?;
     let tracker = load_reference(args, &scene)?;
@@ -271,6 +274,18 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
 }
 
+/// The scene's notes (what was read but not used as written) on stderr: those that change what is rendered
+/// (an integrator read as or replaced by the path tracer) in full, the ignored properties counted.
+fn print_notes(scene: &Scene) {
+    let (ignored, other): (Vec<_>, Vec<_>) = scene.notes.iter().partition(|n| n.kind == NoteKind::Ignored);
+    for n in other {
+        eprintln!("note: {n}");
+    }
+    if !ignored.is_empty() {
+        eprintln!("note: {} properties that change no image were ignored (`caustica info` lists them)", ignored.len());
+    }
+}
+
 /// Says how many samples were NaN or infinite and what was done with them (`film` module docs).
 fn warn_non_finite(film: &Film, samples: u64) {
     if film.nan_count() + film.inf_count() > 0 {
@@ -317,7 +332,8 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
 
 /// The scene with `--width`/`--height` and `--crop` applied.
 fn load_scene(args: &RenderArgs, path: &Path) -> anyhow::Result<Scene> {
-    let mut scene = Scene::load_with_params(path, &args.params.map())?;
+    let options = LoadOptions { params: args.params.map(), replace_integrator: args.estimator.is_some() };
+    let mut scene = Scene::load_with(path, &options)?;
     args.run.set_resolution(&mut scene)?;
     if let Some(c) = args.crop {
         let (w, h) = (scene.camera.width(), scene.camera.height());

@@ -15,7 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use super::delta_light;
-use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorType, ShapeDesc, ShapeType};
+use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
 use super::settings::{check, CausticsSettings, IntegratorSettings};
@@ -24,7 +24,7 @@ use super::transform::{invertible_linear_part, to_world_matrix};
 use super::xml::Places;
 use super::Scene;
 use crate::bsdf::Bsdf;
-use crate::camera::{Camera, CameraError};
+use crate::camera::{Camera, CameraError, FovAxis};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
@@ -217,6 +217,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         camera,
         integrator,
         bounds,
+        notes: Vec::new(),
     })
 }
 
@@ -274,8 +275,9 @@ fn camera(ctx: &ErrorContext, file: &SceneFile) -> Result<Camera, SceneError> {
     if s.to_world.is_some() {
         invertible_linear_part(ctx, "sensor.to_world", to_world)?;
     }
-    let mut camera = Camera::new(to_world, s.fov, s.fov_axis, s.film.width, s.film.height).map_err(|e| match e {
-        CameraError::Fov(_) => ctx.key_error("sensor.fov", e.to_string()),
+    let (fov, fov_axis, fov_key) = field_of_view(ctx, s)?;
+    let mut camera = Camera::new(to_world, fov, fov_axis, s.film.width, s.film.height).map_err(|e| match e {
+        CameraError::Fov(_) => ctx.key_error(fov_key, e.to_string()),
         CameraError::ZeroSizeFilm { width: 0, .. } => ctx.key_error("sensor.film.width", e.to_string()),
         CameraError::ZeroSizeFilm { .. } => ctx.key_error("sensor.film.height", e.to_string()),
         CameraError::FilmTooLarge { .. } => ctx.key_error("sensor.film", e.to_string()),
@@ -287,6 +289,30 @@ fn camera(ctx: &ErrorContext, file: &SceneFile) -> Result<Camera, SceneError> {
             .map_err(|e| ctx.key_error("sensor.film.crop", e.to_string()))?;
     }
     Ok(camera)
+}
+
+/// The sensor's field of view in degrees, its axis, and the key it came from: `fov` (with `fov_axis`), or
+/// else the 35 mm equivalent `focal_length` (Mitsuba's default "50mm") across the film's diagonal, as
+/// Mitsuba's `parse_fov` (src/render/sensor.cpp): `2·atan(√(36² + 24²) / 2f)`.
+fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'static str), SceneError> {
+    const KEY: &str = "sensor.focal_length";
+    match (s.fov, &s.focal_length) {
+        (Some(_), Some(_)) => Err(ctx.key_error(KEY, "give either fov or focal_length, not both")),
+        (Some(fov), None) => Ok((fov, s.fov_axis, "sensor.fov")),
+        (None, focal_length) => {
+            let text = focal_length.as_deref().unwrap_or("50mm");
+            let mm: f64 = text
+                .strip_suffix("mm")
+                .unwrap_or(text)
+                .trim()
+                .parse()
+                .ok()
+                .filter(|f: &f64| f.is_finite() && *f > 0.0)
+                .ok_or_else(|| ctx.key_error(KEY, format!("{text:?} is not a focal length (a positive number of millimetres, \"50mm\")")))?;
+            let fov = 2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees();
+            Ok((fov as f32, FovAxis::Diagonal, KEY))
+        }
+    }
 }
 
 /// Rejects keys that do not apply to the shape's type.

@@ -21,7 +21,7 @@ pub fn convert_scene(input: &Path, output: &Path, params: &BTreeMap<String, Stri
     // Build it (every check of a render), then take its description.
     Scene::load_with_params(input, params)?;
     let mut doc = if is_xml(input) {
-        super::xml::read_str(&text, input, in_dir, params)?.0
+        super::xml::read_str(&text, input, in_dir, params, super::xml::ConvertOptions::default())?.0
     } else {
         toml::from_str::<Table>(&text).map_err(|e| key_error(input, &format!("cannot parse: {e}")))?
     };

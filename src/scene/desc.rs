@@ -83,7 +83,10 @@ pub(crate) enum SensorType {
 pub(crate) struct SensorDesc {
     #[serde(rename = "type", default)]
     pub kind: SensorType,
-    pub fov: f32,
+    /// Degrees along `fov_axis`; without it, `focal_length` sets the field of view (`build`).
+    pub fov: Option<f32>,
+    /// A 35 mm film equivalent focal length, `"50mm"` (Mitsuba's default when neither is given).
+    pub focal_length: Option<String>,
     #[serde(default)]
     pub fov_axis: FovAxis,
     /// Mitsuba's clip planes: accepted only where they clip nothing (`clip`).

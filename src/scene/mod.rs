@@ -106,6 +106,7 @@ mod desc;
 mod error;
 mod interaction;
 mod material;
+mod note;
 pub mod precision;
 pub mod settings;
 mod shading;
@@ -121,6 +122,7 @@ pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
 pub use convert::convert_scene;
 pub use error::SceneError;
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};
+pub use note::{NoteKind, SceneNote};
 pub use shading::TriangleShading;
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
@@ -152,6 +154,18 @@ pub struct Scene {
     pub integrator: IntegratorSettings,
     /// Bounds of all vertices.
     pub bounds: Aabb,
+    /// What the scene files say that was read but not used as written (module `note`).
+    pub notes: Vec<SceneNote>,
+}
+
+/// How a scene file is read.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Values of the scene's parameters (`$name` in Mitsuba XML; Mitsuba's `-D name=value`).
+    pub params: BTreeMap<String, String>,
+    /// The command line chooses the estimator (`--estimator`): an integrator the scene names that caustica
+    /// does not have is replaced by its path tracer, with a note, instead of refused.
+    pub replace_integrator: bool,
 }
 
 impl Scene {
@@ -164,13 +178,20 @@ impl Scene {
     /// [`Scene::load`] with values for the scene's parameters (`$name` in Mitsuba XML; Mitsuba's `-D
     /// name=value`). TOML scenes have no parameters: giving any is an error.
     pub fn load_with_params(path: &Path, params: &BTreeMap<String, String>) -> Result<Scene, SceneError> {
+        Self::load_with(path, &LoadOptions { params: params.clone(), ..LoadOptions::default() })
+    }
+
+    /// [`Scene::load`] as `options` say.
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+        let params = &options.params;
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             file: path.to_path_buf(),
             source,
         })?;
         let base_dir = path.parent().unwrap_or_else(|| Path::new("."));
         if is_xml(path) {
-            return Self::from_xml_str(&text, base_dir, path, params);
+            let convert = xml::ConvertOptions { replace_integrator: options.replace_integrator };
+            return Self::from_xml_with(&text, base_dir, path, params, convert);
         }
         if let Some(name) = params.keys().next() {
             return Err(SceneError::Key {
@@ -197,8 +218,20 @@ impl Scene {
         name_for_errors: &Path,
         params: &BTreeMap<String, String>,
     ) -> Result<Scene, SceneError> {
-        let (description, places) = xml::read_str(text, name_for_errors, base_dir, params)?;
-        build::build_xml_scene(&description, places, base_dir, name_for_errors)
+        Self::from_xml_with(text, base_dir, name_for_errors, params, xml::ConvertOptions::default())
+    }
+
+    fn from_xml_with(
+        text: &str,
+        base_dir: &Path,
+        name_for_errors: &Path,
+        params: &BTreeMap<String, String>,
+        options: xml::ConvertOptions,
+    ) -> Result<Scene, SceneError> {
+        let (description, places, notes) = xml::read_str(text, name_for_errors, base_dir, params, options)?;
+        let mut scene = build::build_xml_scene(&description, places, base_dir, name_for_errors)?;
+        scene.notes = notes;
+        Ok(scene)
     }
 
     /// Whether any material in use has a delta lobe (else no caustic paths exist and a photon pass is useless).

@@ -11,8 +11,11 @@ use std::collections::HashMap;
 
 use toml::{Table, Value};
 
+use super::ignored;
+use super::integrators::{self, Reading};
 use super::places::{Place, Places};
-use super::tree::Element;
+use super::tree::{Element, SearchPath};
+use super::super::note::{NoteKind, SceneNote};
 use super::values::{self, float_array, numbers, numbers_n, xyz, PROPERTY_TAGS};
 use super::super::desc::FilmDesc;
 use super::super::error::SceneError;
@@ -28,11 +31,27 @@ pub(crate) const CAUSTICS_PREFIX: &str = "caustics_";
 /// The attributes of a plugin element.
 const PLUGIN_ATTRS: &[&str] = &["type", "id", "name"];
 
-/// The scene description and the places of its keys.
-pub(crate) fn convert(root: &Element) -> Result<(Table, Places), SceneError> {
+/// How the XML reader treats what the scene names but caustica does not have.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct ConvertOptions {
+    /// An integrator that caustica does not have is replaced by its path tracer (with a note) instead of
+    /// refused: the command line chose the estimator (`--estimator`).
+    pub replace_integrator: bool,
+}
+
+/// The scene description and the places of its keys; what was read but changes nothing, or was
+/// replaced, is in the notes.
+pub(crate) fn convert(
+    root: &Element,
+    search: &SearchPath,
+    options: ConvertOptions,
+) -> Result<(Table, Places, Vec<SceneNote>), SceneError> {
     let mut c = Converter {
         places: Places::new(root),
         ids: HashMap::new(),
+        search,
+        options,
+        notes: Vec::new(),
         named_bsdfs: Table::new(),
         integrator: Table::new(),
         sensor: None,
@@ -51,7 +70,13 @@ pub(crate) fn convert(root: &Element) -> Result<(Table, Places), SceneError> {
                 c.named_bsdf(el, &name)?;
             }
             "shape" => c.shape(el)?,
+            // An area emitter with an id is attached to the shapes that refer to it (Mitsuba: a surface
+            // emitter joins the scene through its shape).
+            "emitter" if el.attr("id").is_some() && el.attr("type") == Some("area") => {}
             "emitter" => c.emitter(el)?,
+            // Films, samplers and filters with an id are read where a sensor or film refers to them.
+            "film" | "sampler" | "rfilter" if el.attr("id").is_some() => {}
+            "film" | "sampler" | "rfilter" => c.push_note(NoteKind::Ignored, el, "outside a <sensor> and without an id, it is not used (as in Mitsuba)".into()),
             _ => return Err(unsupported(el, root)),
         }
     }
@@ -71,17 +96,21 @@ pub(crate) fn convert(root: &Element) -> Result<(Table, Places), SceneError> {
     if !c.emitters.is_empty() {
         doc.insert("emitter".into(), Value::Array(c.emitters));
     }
-    Ok((doc, c.places))
+    Ok((doc, c.places, c.notes))
 }
 
 fn unsupported(el: &Element, parent: &Element) -> SceneError {
     el.error(format!("<{}> is not supported inside {}", el.tag, parent.label()))
 }
 
-struct Converter {
+struct Converter<'a> {
     places: Places,
-    /// The tag of every element with an `id`.
-    ids: HashMap<String, String>,
+    /// Every element with an `id`.
+    ids: HashMap<&'a str, &'a Element>,
+    /// Where relative file names are looked for.
+    search: &'a SearchPath,
+    options: ConvertOptions,
+    notes: Vec<SceneNote>,
     named_bsdfs: Table,
     integrator: Table,
     sensor: Option<Table>,
@@ -91,12 +120,12 @@ struct Converter {
     sampler_seen: bool,
 }
 
-impl Converter {
-    fn collect_ids(&mut self, el: &Element) -> Result<(), SceneError> {
+impl<'a> Converter<'a> {
+    fn collect_ids(&mut self, el: &'a Element) -> Result<(), SceneError> {
         for child in &el.children {
             if child.tag != "ref" {
                 if let Some(id) = child.attr("id") {
-                    if self.ids.insert(id.to_string(), child.tag.clone()).is_some() {
+                    if self.ids.insert(id, child).is_some() {
                         return Err(child.error(format!("id {id:?} is used twice")));
                     }
                 }
@@ -104,6 +133,40 @@ impl Converter {
             self.collect_ids(child)?;
         }
         Ok(())
+    }
+
+    /// A note about element `el`, read differently from what it names.
+    fn note(&mut self, el: &Element, message: impl Into<String>) {
+        self.push_note(NoteKind::Reading, el, message.into());
+    }
+
+    /// A note that property element `el` of `plugin` changes no image (`why`), and is left out.
+    fn note_ignored(&mut self, plugin: &Element, el: &Element, why: &str) {
+        self.push_note(NoteKind::Ignored, el, format!("property of {} ignored: {why}", plugin.label()));
+    }
+
+    fn push_note(&mut self, kind: NoteKind, el: &Element, message: String) {
+        self.notes.push(SceneNote { kind, file: el.file.as_ref().clone(), line: el.line, message: format!("{}: {message}", el.label()) });
+    }
+
+    /// The element `<ref id="…">` refers to, which must have tag `tag`.
+    fn referenced(&self, r: &Element, tag: &str) -> Result<&'a Element, SceneError> {
+        r.check_attrs(&["id", "name"])?;
+        let id = r.required("id")?;
+        match self.ids.get(id) {
+            Some(el) if el.tag == tag => Ok(el),
+            Some(el) => Err(r.error(format!("refers to a <{}>; a <{tag}> is expected here", el.tag))),
+            None => Err(r.error(format!("no element has id {id:?}"))),
+        }
+    }
+
+    /// `child` itself, or the element it refers to when it is a `<ref>` to a `<tag>`.
+    fn deref(&self, child: &'a Element, tag: &str) -> Result<&'a Element, SceneError> {
+        if child.tag == "ref" {
+            self.referenced(child, tag)
+        } else {
+            Ok(child)
+        }
     }
 
     /// Inserts property `name` = `value` into `table` (at key path `key`), written by `child` of `plugin`.
@@ -116,11 +179,21 @@ impl Converter {
         Ok(())
     }
 
-    /// A property element or a `<transform>` of `plugin` → `table`; `Ok(false)` for other elements.
+    /// A property element or a `<transform>` of `plugin` → `table`; `Ok(false)` for other elements. A
+    /// property that changes no image in caustica is noted and left out (`ignored`); a `filename` is
+    /// looked for along the search path.
     fn property_or_transform(&mut self, plugin: &Element, child: &Element, key: &str, table: &mut Table) -> Result<bool, SceneError> {
         if PROPERTY_TAGS.contains(&child.tag.as_str()) {
             let name = child.required("name")?;
-            let value = values::property_value(child)?;
+            if let Some(why) = ignored::why(plugin, name) {
+                values::property_value(child)?;
+                self.note_ignored(plugin, child, why);
+                return Ok(true);
+            }
+            let mut value = values::property_value(child)?;
+            if let (Value::String(written), "filename") = (&value, name) {
+                value = Value::String(self.resolve_file(child, written));
+            }
             self.put(table, key, plugin, child, name, value)?;
             Ok(true)
         } else if child.tag == "transform" {
@@ -130,6 +203,20 @@ impl Converter {
             Ok(true)
         } else {
             Ok(false)
+        }
+    }
+
+    /// The file name `written` in `el` as the description holds it: relative to the scene's directory
+    /// (where the builder looks), or absolute, after looking along the search path (`<path>`) and in the
+    /// directory of `el`'s own file. A name found nowhere stays as written (the builder names it).
+    fn resolve_file(&self, el: &Element, written: &str) -> String {
+        let own_dir = el.file.parent();
+        let Some(found) = self.search.resolve(written, own_dir) else {
+            return written.to_string();
+        };
+        match found.strip_prefix(self.search.base_dir()) {
+            Ok(relative) => relative.to_string_lossy().into_owned(),
+            Err(_) => std::path::absolute(&found).unwrap_or(found).to_string_lossy().into_owned(),
         }
     }
 
@@ -144,25 +231,59 @@ impl Converter {
         Ok(t)
     }
 
-    fn integrator(&mut self, el: &Element) -> Result<(), SceneError> {
+    fn integrator(&mut self, el: &'a Element) -> Result<(), SceneError> {
         if std::mem::replace(&mut self.integrator_seen, true) {
             return Err(el.error("a second <integrator>"));
         }
         el.check_attrs(PLUGIN_ATTRS)?;
         let kind = el.required("type")?;
-        if kind != "path" {
-            return Err(el.error(format!(
-                "integrator type {kind:?} is not supported: caustica renders with \"path\" (its caustic photon map is set with the caustics_* properties)"
-            )));
+        match integrators::reading(kind) {
+            Reading::Path { max_depth } => {
+                if kind != "path" {
+                    self.note(el, format!("read as caustica's path tracer ({})", integrators::why(kind)));
+                }
+                self.path_integrator(el, max_depth)
+            }
+            Reading::Inner => {
+                let inner = el.children.iter().find(|c| c.tag == "integrator");
+                let Some(inner) = inner else {
+                    return Err(el.error(format!("integrator {kind:?} without a nested <integrator> renders no image caustica can make")));
+                };
+                for child in el.children.iter().filter(|c| c.tag != "integrator") {
+                    self.note_ignored(el, child, "caustica renders the image of the nested integrator only");
+                }
+                self.note(el, "its nested integrator is rendered (the extra channels are not written)");
+                self.integrator_seen = false;
+                self.integrator(inner)
+            }
+            Reading::Refused(why) if !self.options.replace_integrator => Err(el.error(format!(
+                "integrator type {kind:?} is not supported: {why}; `--estimator pt|pm|mis` on the command line replaces it by caustica's path tracer"
+            ))),
+            Reading::Refused(_) => {
+                self.note(el, "replaced by caustica's path tracer with its default settings (--estimator)");
+                Ok(())
+            }
         }
+    }
+
+    /// The properties of an integrator read as `path` (`max_depth`: the depth its type implies).
+    fn path_integrator(&mut self, el: &Element, max_depth: Option<i64>) -> Result<(), SceneError> {
         self.places.insert("integrator", Place::plugin(el));
         let mut table = std::mem::take(&mut self.integrator);
+        if let Some(depth) = max_depth {
+            table.insert("max_depth".into(), Value::Integer(depth));
+        }
         let mut caustics = Table::new();
         for child in &el.children {
             if !PROPERTY_TAGS.contains(&child.tag.as_str()) {
                 return Err(unsupported(child, el));
             }
             let name = child.required("name")?;
+            if let Some(why) = ignored::why(el, name) {
+                values::property_value(child)?;
+                self.note_ignored(el, child, why);
+                continue;
+            }
             let value = values::property_value(child)?;
             if let Some(rest) = name.strip_prefix(CAUSTICS_PREFIX) {
                 self.places.insert("integrator.caustics", Place::plugin(el));
@@ -174,6 +295,16 @@ impl Converter {
                     "unknown property \"{name}\" of {} (the sample count and seed are the <sampler>'s sample_count and seed)",
                     el.label()
                 )));
+            } else if name == "hide_emitters" {
+                if value != Value::Boolean(false) {
+                    return Err(child.error(format!(
+                        "hide_emitters = true of {} is not supported (caustica's camera rays see the emitters)",
+                        el.label()
+                    )));
+                }
+                self.note_ignored(el, child, "false is caustica's behaviour");
+            } else if max_depth.is_some() && name == "max_depth" {
+                return Err(child.error(format!("{} has no property \"max_depth\" (its depth is fixed)", el.label())));
             } else {
                 self.put(&mut table, "integrator", el, child, name, value)?;
             }
@@ -185,7 +316,7 @@ impl Converter {
         Ok(())
     }
 
-    fn sensor(&mut self, el: &Element) -> Result<(), SceneError> {
+    fn sensor(&mut self, el: &'a Element) -> Result<(), SceneError> {
         if self.sensor.is_some() {
             return Err(el.error("a second <sensor> (caustica renders one camera)"));
         }
@@ -196,13 +327,20 @@ impl Converter {
             if self.property_or_transform(el, child, key, &mut table)? {
                 continue;
             }
-            match child.tag.as_str() {
+            let tag = match child.tag.as_str() {
+                "ref" => self.ids.get(child.attr("id").unwrap_or_default()).map_or("ref", |r| r.tag.as_str()),
+                tag => tag,
+            };
+            match tag {
                 "film" if !film_seen => {
                     film_seen = true;
-                    let film = self.film(child)?;
+                    let film = self.film(self.deref(child, "film")?)?;
                     table.insert("film".into(), Value::Table(film));
                 }
-                "sampler" => self.sampler(child)?,
+                "sampler" => self.sampler(self.deref(child, "sampler")?)?,
+                _ if child.tag == "ref" => {
+                    self.referenced(child, "film")?;
+                }
                 _ => return Err(unsupported(child, el)),
             }
         }
@@ -210,7 +348,7 @@ impl Converter {
         Ok(())
     }
 
-    fn film(&mut self, el: &Element) -> Result<Table, SceneError> {
+    fn film(&mut self, el: &'a Element) -> Result<Table, SceneError> {
         let key = "sensor.film";
         el.check_attrs(PLUGIN_ATTRS)?;
         let kind = el.required("type")?;
@@ -223,9 +361,10 @@ impl Converter {
         const CROP: [&str; 4] = ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"];
         let mut rfilter_seen = false;
         for child in &el.children {
-            if child.tag == "rfilter" && !rfilter_seen {
+            let is_rfilter = child.tag == "rfilter" || (child.tag == "ref" && self.deref(child, "rfilter").is_ok());
+            if is_rfilter && !rfilter_seen {
                 rfilter_seen = true;
-                rfilter(child)?;
+                rfilter(self.deref(child, "rfilter")?)?;
                 continue;
             }
             let name = child.attr("name").unwrap_or_default();
@@ -274,6 +413,11 @@ impl Converter {
                 return Err(unsupported(child, el));
             }
             let name = child.required("name")?;
+            if let Some(why) = ignored::why(el, name) {
+                values::property_value(child)?;
+                self.note_ignored(el, child, why);
+                continue;
+            }
             let target = match name {
                 "sample_count" => "samples_per_pixel",
                 "seed" => "seed",
@@ -309,7 +453,7 @@ impl Converter {
         if el.tag == "ref" {
             el.check_attrs(&["id", "name"])?;
             let id = el.required("id")?;
-            return match self.ids.get(id).map(String::as_str) {
+            return match self.ids.get(id).map(|e| e.tag.as_str()) {
                 Some("bsdf") => Ok(Value::String(id.to_string())),
                 Some(tag) => Err(el.error(format!("refers to a <{tag}>; only BSDFs can be referenced here"))),
                 None => Err(el.error(format!("no element has id {id:?}"))),
@@ -352,16 +496,23 @@ impl Converter {
         Ok(table)
     }
 
-    fn shape(&mut self, el: &Element) -> Result<(), SceneError> {
+    fn shape(&mut self, el: &'a Element) -> Result<(), SceneError> {
         let key = join_index("shape", self.shapes.len());
         let mut table = self.plugin_table(el, &key)?;
         for child in &el.children {
             if self.property_or_transform(el, child, &key, &mut table)? {
                 continue;
             }
-            let slot = match child.tag.as_str() {
-                "bsdf" | "ref" => "bsdf",
+            let tag = match child.tag.as_str() {
+                "ref" => self.ids.get(child.attr("id").unwrap_or_default()).map_or("bsdf", |r| r.tag.as_str()),
+                tag => tag,
+            };
+            let slot = match tag {
+                "bsdf" => "bsdf",
                 "emitter" => "emitter",
+                _ if child.tag == "ref" => {
+                    return Err(child.error(format!("refers to a <{tag}>; a shape refers to a <bsdf> or an <emitter>")))
+                }
                 _ => return Err(unsupported(child, el)),
             };
             if table.contains_key(slot) {
@@ -371,7 +522,7 @@ impl Converter {
             let value = if slot == "bsdf" {
                 self.bsdf_value(child, &slot_key)?
             } else {
-                Value::Table(self.leaf_plugin(child, &slot_key)?)
+                Value::Table(self.leaf_plugin(self.deref(child, "emitter")?, &slot_key)?)
             };
             table.insert(slot.into(), value);
         }

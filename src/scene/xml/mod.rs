@@ -53,6 +53,8 @@
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.
 
 mod convert;
+mod ignored;
+mod integrators;
 mod params;
 mod places;
 mod tree;
@@ -62,19 +64,24 @@ pub(crate) mod write;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+pub(crate) use convert::ConvertOptions;
 pub(crate) use places::Places;
 
 use super::error::SceneError;
+use super::note::SceneNote;
 
-/// The description of the XML scene `text` (named `name` in errors) with the places of its keys;
-/// `params` are the `-D` values, `base_dir` resolves includes.
+/// The description of the XML scene `text` (named `name` in errors) with the places of its keys and the
+/// notes on what was read but not used as written; `params` are the `-D` values, `base_dir` (the scene
+/// file's directory) resolves includes and file names.
 pub(crate) fn read_str(
     text: &str,
     name: &Path,
     base_dir: &Path,
     params: &BTreeMap<String, String>,
-) -> Result<(toml::Table, Places), SceneError> {
-    let mut root = tree::parse_scene(text, name, base_dir, 0)?;
+    options: ConvertOptions,
+) -> Result<(toml::Table, Places, Vec<SceneNote>), SceneError> {
+    let mut search = tree::SearchPath::new(base_dir);
+    let mut root = tree::parse_scene(text, name, &mut search, 0)?;
     params::substitute(&mut root, params, name)?;
-    convert::convert(&root)
+    convert::convert(&root, &search, options)
 }

@@ -1,5 +1,6 @@
-//! The XML files as an owned element tree: every element keeps its file and line (for errors), and
-//! `<include filename="…"/>` elements are replaced by the children of the included file's `<scene>`.
+//! The XML files as an owned element tree: every element keeps its file and line (for errors),
+//! `<include filename="…"/>` elements are replaced by the children of the included file's `<scene>`, and
+//! `<path value="…"/>` elements become the [`SearchPath`] relative file names are looked for along.
 
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -65,11 +66,51 @@ impl Element {
     }
 }
 
-/// Parses `text` (named `path` in errors) and resolves its includes; relative include names are relative
-/// to `base_dir` (the directory of the scene file given, as Mitsuba resolves them).
-pub(crate) fn parse_scene(text: &str, path: &Path, base_dir: &Path, depth: usize) -> Result<Element, SceneError> {
+/// Where relative file names are looked for, as Mitsuba 3's file resolver does (`FileResolver`,
+/// `src/core/parser.cpp`, tags `<path>` and `<include>`): the directories of `<path value="…"/>`
+/// elements, the latest first, then the directory of the scene file given.
+#[derive(Clone, Debug)]
+pub(crate) struct SearchPath {
+    dirs: Vec<PathBuf>,
+}
+
+impl SearchPath {
+    /// The search path of a scene file in directory `base_dir`.
+    pub(crate) fn new(base_dir: &Path) -> Self {
+        Self { dirs: vec![base_dir.to_path_buf()] }
+    }
+
+    /// The directory of the scene file given (looked in last).
+    pub(crate) fn base_dir(&self) -> &Path {
+        self.dirs.last().map_or(Path::new(""), PathBuf::as_path)
+    }
+
+    /// Looks in `dir` before every directory already listed.
+    fn prepend(&mut self, dir: PathBuf) {
+        self.dirs.insert(0, dir);
+    }
+
+    /// The first `dir/name` that exists, looking in the listed directories and then in `fallback` (the
+    /// directory of the file that names it: Mitsuba itself would not look there for a mesh named in an
+    /// included file, caustica does); `None` when none exists. An absolute name is returned as it is.
+    pub(crate) fn resolve(&self, name: &str, fallback: Option<&Path>) -> Option<PathBuf> {
+        let name = Path::new(name);
+        if name.is_absolute() {
+            return Some(name.to_path_buf());
+        }
+        self.dirs.iter().map(PathBuf::as_path).chain(fallback).map(|d| d.join(name)).find(|p| p.exists())
+    }
+}
+
+/// Parses `text` (named `path` in errors) and resolves its includes and `<path>` elements: an include is
+/// looked for in the including file's directory, then along `search` (the `<path>`s seen so far), as
+/// Mitsuba does; the `<path>`s of the scene file given (`depth` 0) stay in `search` for the file names
+/// of its plugins (Mitsuba resolves those after parsing), those of an included file apply to its own
+/// includes only.
+pub(crate) fn parse_scene(text: &str, path: &Path, search: &mut SearchPath, depth: usize) -> Result<Element, SceneError> {
     let file = Rc::new(path.to_path_buf());
-    let doc = roxmltree::Document::parse(text).map_err(|e| SceneError::XmlSyntax {
+    let text = comments_as_mitsuba_reads_them(text);
+    let doc = roxmltree::Document::parse(&text).map_err(|e| SceneError::XmlSyntax {
         file: path.to_path_buf(),
         line: e.pos().row as usize,
         column: e.pos().col as usize,
@@ -87,22 +128,70 @@ pub(crate) fn parse_scene(text: &str, path: &Path, base_dir: &Path, depth: usize
             "scene version {version:?} is not supported (Mitsuba 2 and 3 files: version 2.x or 3.x)"
         )));
     }
+    let dir = path.parent().unwrap_or_else(|| Path::new(""));
     let children = std::mem::take(&mut root.children);
     for child in children {
-        if child.tag == "include" {
-            child.check_attrs(&["filename"])?;
-            if depth >= MAX_INCLUDE_DEPTH {
-                return Err(child.error(format!("includes nested deeper than {MAX_INCLUDE_DEPTH} files (a cycle?)")));
+        match child.tag.as_str() {
+            "include" => {
+                child.check_attrs(&["filename", "name"])?;
+                if depth >= MAX_INCLUDE_DEPTH {
+                    return Err(child.error(format!("includes nested deeper than {MAX_INCLUDE_DEPTH} files (a cycle?)")));
+                }
+                let written = child.required("filename")?;
+                let mut inner = search.clone();
+                inner.prepend(dir.to_path_buf());
+                let name = inner.resolve(written, None).ok_or_else(|| {
+                    child.error(format!("included file {written:?} not found (looked in {})", inner.describe()))
+                })?;
+                let text = std::fs::read_to_string(&name).map_err(|e| child.error(format!("cannot read {}: {e}", name.display())))?;
+                let included = parse_scene(&text, &name, &mut inner, depth + 1)?;
+                root.children.extend(included.children);
             }
-            let name = base_dir.join(child.required("filename")?);
-            let text = std::fs::read_to_string(&name).map_err(|e| child.error(format!("cannot read {}: {e}", name.display())))?;
-            let included = parse_scene(&text, &name, base_dir, depth + 1)?;
-            root.children.extend(included.children);
-        } else {
-            root.children.push(child);
+            "path" => {
+                child.check_attrs(&["value"])?;
+                let value = child.required("value")?;
+                // Mitsuba: relative to the file's directory, else along the search path.
+                let own = dir.join(value);
+                let found = if own.is_dir() { Some(own) } else { search.resolve(value, None).filter(|p| p.is_dir()) };
+                let found = found.ok_or_else(|| child.error(format!("<path>: folder {value:?} not found")))?;
+                search.prepend(found);
+            }
+            _ => root.children.push(child),
         }
     }
     Ok(root)
+}
+
+impl SearchPath {
+    /// The directories, for errors.
+    fn describe(&self) -> String {
+        self.dirs.iter().map(|d| format!("{:?}", d.display().to_string())).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// `text` with the dashes inside comments blanked, so that a comment containing `--` (which XML forbids,
+/// and Mitsuba's parser, pugixml, accepts) parses; every byte keeps its position, so lines and columns in
+/// errors stay those of the file.
+fn comments_as_mitsuba_reads_them(text: &str) -> std::borrow::Cow<'_, str> {
+    let Some(mut start) = text.find("<!--") else {
+        return std::borrow::Cow::Borrowed(text);
+    };
+    let mut out = text.as_bytes().to_vec();
+    loop {
+        let body = start + 4;
+        let Some(len) = text[body..].find("-->") else { break };
+        for b in &mut out[body..body + len] {
+            if *b == b'-' {
+                *b = b' ';
+            }
+        }
+        match text[body + len + 3..].find("<!--") {
+            Some(next) => start = body + len + 3 + next,
+            None => break,
+        }
+    }
+    // Only ASCII dashes were replaced by ASCII spaces: still UTF-8.
+    std::borrow::Cow::Owned(String::from_utf8(out).expect("dashes replaced by spaces keep UTF-8"))
 }
 
 /// The element and its descendants as owned [`Element`]s; text other than whitespace is an error.
