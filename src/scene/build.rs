@@ -15,7 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use super::delta_light;
-use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType};
+use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
 use super::settings::{check, CausticsSettings, IntegratorSettings};
@@ -26,7 +26,7 @@ use super::Scene;
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError, FovAxis};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
-use crate::math::{Mat3, Mat4, Vec3};
+use crate::math::{Aabb, Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
 
 /// Default sphere tessellation: 128 rings × 256 segments = 65,024 triangles. The chord error is at most
@@ -119,7 +119,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
 
     // Phase 1: plan.
     let integrator = integrator_settings(&ctx, &file)?;
-    let camera = camera(&ctx, &file)?;
+    let given_camera = file.sensor.as_ref().map(|s| camera(ctx, s)).transpose()?;
     let mut materials = Materials::new(&ctx, &file.bsdf)?;
     let mut shape_plans = Vec::with_capacity(file.shape.len());
     for (i, shape) in file.shape.iter().enumerate() {
@@ -203,8 +203,14 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         }
     }
     let bounds = mesh.bounds();
-    super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
-    super::clip::check(ctx, &camera, &mesh, bounds, file.sensor.near_clip, file.sensor.far_clip)?;
+    let camera = match (given_camera, &file.sensor) {
+        (Some(camera), Some(s)) => {
+            super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
+            super::clip::check(ctx, &camera, &mesh, bounds, s.near_clip, s.far_clip)?;
+            camera
+        }
+        _ => camera(ctx, &default_sensor(bounds))?,
+    };
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
     Ok(Scene {
         path: name.to_path_buf(),
@@ -266,8 +272,24 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
     })
 }
 
-fn camera(ctx: &ErrorContext, file: &SceneFile) -> Result<Camera, SceneError> {
-    let s = &file.sensor;
+/// Mitsuba 0.6's camera for a scene without a sensor (`Scene::configure`, src/librender/scene.cpp;
+/// Mitsuba 3 has none and renders nothing): a 45° field of view along x, looking along +z from below
+/// the scene's bounding box, far enough for the box's larger extent in x and y to fill the view; the
+/// default film.
+fn default_sensor(bounds: Aabb) -> SensorDesc {
+    let mut s = SensorDesc { fov: Some(45.0), ..SensorDesc::default() };
+    if !bounds.is_empty() {
+        let (centre, extents) = (bounds.center(), bounds.extent());
+        let distance = extents.x.max(extents.y) / (2.0 * 22.5f32.to_radians().tan());
+        s.to_world = Some(ToWorld::One(TransformOp {
+            translate: Some([centre.x, centre.y, bounds.min.z - distance]),
+            ..TransformOp::default()
+        }));
+    }
+    s
+}
+
+fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
     match s.kind {
         SensorType::Perspective => {}
     }

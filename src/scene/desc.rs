@@ -22,7 +22,8 @@ use crate::math::Vec3;
 pub(crate) struct SceneFile {
     #[serde(default)]
     pub integrator: IntegratorDesc,
-    pub sensor: SensorDesc,
+    /// Absent: Mitsuba 0.6's default camera, made to see every shape (`build`).
+    pub sensor: Option<SensorDesc>,
     #[serde(default)]
     pub bsdf: BTreeMap<String, BsdfDesc>,
     #[serde(default)]
@@ -78,7 +79,7 @@ pub(crate) enum SensorType {
     Perspective,
 }
 
-#[derive(Debug, DeriveDeserialize)]
+#[derive(Debug, Default, DeriveDeserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct SensorDesc {
     #[serde(rename = "type", default)]
@@ -286,7 +287,7 @@ pub(crate) struct LookAtDesc {
 }
 
 /// One element of a `to_world`: exactly one of its keys must be present (checked in `transform`).
-#[derive(Debug, DeriveDeserialize)]
+#[derive(Debug, Default, DeriveDeserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct TransformOp {
     pub translate: Option<[f32; 3]>,

@@ -165,7 +165,7 @@ mod tests {
             places: None,
         };
         let file: SceneFile = toml::from_str(&text).map_err(|e| ctx.toml_error(&e))?;
-        to_world_matrix(&ctx, "sensor.to_world", file.sensor.to_world.as_ref())
+        to_world_matrix(&ctx, "sensor.to_world", file.sensor.as_ref().and_then(|s| s.to_world.as_ref()))
     }
 
     #[test]
