@@ -1,9 +1,10 @@
 //! Real Mitsuba scene files written by other people (issue 37), against Mitsuba 3.9.1 itself: each scene shipped
 //! in `tests/data/real/` (provenance, licences and the film sizes edited to 64 pixels wide in its README.md) is
 //! loaded by `Scene::load` as it is, rendered by caustica's `pt` at the file's own size, and compared with
-//! Mitsuba's render `tests/data/real/refs/<name>.exr` (scalar_rgb, 2,048 spp, the file's own integrator where
-//! Mitsuba has it; written by `scripts/make-real-references`, which says what it changed for Mitsuba, in
-//! `refs/<name>.md`).
+//! Mitsuba's render `tests/data/real/refs/<name>.exr` (scalar_rgb, 2,048 spp — 4,096 where the file's
+//! low-discrepancy sampler rounds the count up, which only makes the noise model below cautious — with the
+//! file's own integrator where Mitsuba has it; written by `scripts/make-real-references`, which says what it
+//! changed for Mitsuba in `refs/<name>.md`).
 //!
 //! Noise model as in `mitsuba_features`: our pixel variance from the film, the reference's modelled as
 //! `κ·s²ᵢ/2048` with κ = 2. Bounds: the whole-image mean within 2 % of Mitsuba's and within 4σ + 0.5 %; every
