@@ -30,6 +30,7 @@ mod parts;
 mod path_waves;
 mod photon_emission;
 mod photon_kdtree;
+mod real_scenes;
 mod render_analytic;
 mod render_determinism;
 mod render_reference;

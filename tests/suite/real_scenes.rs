@@ -1,0 +1,110 @@
+//! Real Mitsuba scene files written by other people (issue 37), against Mitsuba 3.9.1 itself: each scene shipped
+//! in `tests/data/real/` (provenance, licences and the film sizes edited to 64 pixels wide in its README.md) is
+//! loaded by `Scene::load` as it is, rendered by caustica's `pt` at the file's own size, and compared with
+//! Mitsuba's render `tests/data/real/refs/<name>.exr` (scalar_rgb, 2,048 spp — 4,096 where the file's
+//! low-discrepancy sampler rounds the count up, which only makes the noise model below cautious — with the
+//! file's own integrator where Mitsuba has it; written by `scripts/make-real-references`, which says what it
+//! changed for Mitsuba in `refs/<name>.md`).
+//!
+//! Noise model as in `mitsuba_features`: our pixel variance from the film, the reference's modelled as
+//! `κ·s²ᵢ/2048` with κ = 2. Bounds: the whole-image mean within 2 % of Mitsuba's and within 4σ + 0.5 %; every
+//! 8×8 block within 4.5σ + 0.5 %. The 0.5 % slack of the reference covers the systematic differences measured
+//! in `mitsuba_features` (Beckmann's G1 fit, < 0.35 %) with a margin for the RGB reading of wavelength spectra.
+//!
+//! A scene that needs a reader feature not merged yet is `#[ignore]`d with the feature it waits for.
+
+use crate::common;
+
+use caustica::film::read_exr;
+use caustica::render::RenderSettings;
+use caustica::scene::{Estimator, Scene};
+use common::*;
+
+const REF_SPP: f64 = 2048.0;
+const KAPPA: f64 = 2.0;
+const SLACK: f64 = 0.005;
+const WHOLE_REL: f64 = 0.02;
+const SPP: u32 = 128;
+
+fn matches_mitsuba(name: &str, file: &str) {
+    let path = repo_path(&format!("tests/data/real/{file}"));
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let reference = read_exr(repo_path(&format!("tests/data/real/refs/{name}.exr")))
+        .unwrap_or_else(|e| panic!("{name}: the reference: {e}"));
+    assert_eq!((reference.width(), reference.height()), (scene.camera.width(), scene.camera.height()), "{name}: size");
+    let mut s = RenderSettings::from_scene(&scene);
+    s.spp = SPP;
+    s.seed = 7;
+    s.estimator = Estimator::Pt;
+    let r = render_with_variance(&scene, backend(), &s);
+    let mut reference = LumImage::from_image(&reference);
+    reference.var = r.sample_var.iter().map(|s2| KAPPA * s2 / REF_SPP).collect();
+    let (a, b) = (r.lum.whole(), reference.whole());
+    let dev = (a.mean - b.mean).abs();
+    let sigma = (a.var + b.var).sqrt();
+    eprintln!("{name}: caustica {:.5} ± {:.5}, Mitsuba {:.5}: ratio {:.4}, {:.2}σ", a.mean, a.sigma(), b.mean, a.mean / b.mean, dev / sigma);
+    assert!(dev <= WHOLE_REL * b.mean, "{name}: whole image {} vs Mitsuba {}: beyond {WHOLE_REL}", a.mean, b.mean);
+    assert!(dev <= 4.0 * sigma + SLACK * b.mean, "{name}: whole image {} vs Mitsuba {} ({:.2}σ)", a.mean, b.mean, dev / sigma);
+    let mut worst: f64 = 0.0;
+    for ((x, y, ours), (_, _, theirs)) in r.lum.blocks(8).into_iter().zip(reference.blocks(8)) {
+        let sigma = (ours.var + theirs.var).sqrt();
+        let excess = ((ours.mean - theirs.mean).abs() - SLACK * theirs.mean) / sigma;
+        worst = worst.max(excess);
+        assert!(excess <= 4.5, "{name}: block at ({x}, {y}): {} vs Mitsuba {} ({excess:.2}σ beyond the slack)", ours.mean, theirs.mean);
+    }
+    eprintln!("{name}: worst 8×8 block {worst:.2}σ beyond the {SLACK} slack");
+}
+
+#[test]
+#[ignore = "needs the Mitsuba 0.x upgrade, wavelength spectra, the gaussian filter, ldsampler and ignored properties (issue 37)"]
+fn lajolla_cbox_v0_4() {
+    matches_mitsuba("lajolla-cbox-v0.4", "BachiLi+lajolla_public/scenes/cbox/cbox.xml");
+}
+
+#[test]
+#[ignore = "needs the Mitsuba 0.x upgrade, the gaussian filter and ignored film properties (issue 37)"]
+fn lajolla_sphere_v0_5() {
+    matches_mitsuba("lajolla-sphere-v0.5", "BachiLi+lajolla_public/scenes/disney_bsdf_test/simple_sphere.xml");
+}
+
+#[test]
+#[ignore = "needs wavelength spectra, the gaussian filter and ignored properties (focus_distance) (issue 37)"]
+fn mitsuba2_cbox() {
+    matches_mitsuba("mitsuba2-cbox", "mitsuba-renderer+mitsuba-data@23350ff0c9d8/scenes/cbox/cbox.xml");
+}
+
+#[test]
+#[ignore = "needs <path> and the gaussian filter (issue 37)"]
+fn mitsuba2_twosided_cbox() {
+    matches_mitsuba("mitsuba2-twosided-cbox", "mitsuba-renderer+mitsuba-data@23350ff0c9d8/docs/scenes/bsdf_twosided_cbox.xml");
+}
+
+#[test]
+#[ignore = "needs <path> and the direct integrator read as path (issue 37)"]
+fn mitsuba3_hello() {
+    matches_mitsuba("mitsuba3-hello", "mitsuba-renderer+mitsuba-data/scenes/hello.xml");
+}
+
+#[test]
+#[ignore = "needs <ref> to an emitter declared by id at the top level (issue 37)"]
+fn mitsuba3_cbox_rgb() {
+    matches_mitsuba("mitsuba3-cbox-rgb", "mitsuba-renderer+mitsuba-data/scenes/cbox/cbox-rgb.xml");
+}
+
+#[test]
+#[ignore = "needs <path>, wavelength spectra, the stokes integrator read as its nested path and ignored film properties (issue 37)"]
+fn mitsuba3_stokes_cbox() {
+    matches_mitsuba("mitsuba3-stokes-cbox", "mitsuba-renderer+mitsuba-data/docs/scenes/integrator_stokes_cbox.xml");
+}
+
+#[test]
+#[ignore = "needs the tent filter, an unknown integrator read as path and ignored film properties (issue 37)"]
+fn bitterli_cornell_box() {
+    matches_mitsuba("bitterli-cornell-box", "takkasila+practical_path_guiding_lab/scenes/cornell-box/scene.xml");
+}
+
+#[test]
+#[ignore = "needs the tent filter, an unknown integrator read as path and ignored film properties (issue 37)"]
+fn bitterli_veach_mis() {
+    matches_mitsuba("bitterli-veach-mis", "takkasila+practical_path_guiding_lab/scenes/veach-mis/scene.xml");
+}
