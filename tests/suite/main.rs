@@ -40,3 +40,4 @@ mod scene_files;
 mod scene_xml;
 mod stress;
 mod teapot_glossy;
+mod xml_language;

@@ -17,7 +17,7 @@ use crate::common;
 
 use caustica::film::read_exr;
 use caustica::render::RenderSettings;
-use caustica::scene::{Estimator, Scene};
+use caustica::scene::{Estimator, LoadOptions, Scene};
 use common::*;
 
 const REF_SPP: f64 = 2048.0;
@@ -27,8 +27,14 @@ const WHOLE_REL: f64 = 0.02;
 const SPP: u32 = 128;
 
 fn matches_mitsuba(name: &str, file: &str) {
+    matches_mitsuba_with(name, file, &LoadOptions::default());
+}
+
+/// [`matches_mitsuba`] for a scene loaded as `options` say (a research integrator replaced, as
+/// `render --estimator pt` replaces it).
+fn matches_mitsuba_with(name: &str, file: &str, options: &LoadOptions) {
     let path = repo_path(&format!("tests/data/real/{file}"));
-    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let scene = Scene::load_with(&path, options).unwrap_or_else(|e| panic!("{name}: {e}"));
     let reference = read_exr(repo_path(&format!("tests/data/real/refs/{name}.exr")))
         .unwrap_or_else(|e| panic!("{name}: the reference: {e}"));
     assert_eq!((reference.width(), reference.height()), (scene.camera.width(), scene.camera.height()), "{name}: size");
@@ -80,13 +86,11 @@ fn mitsuba2_twosided_cbox() {
 }
 
 #[test]
-#[ignore = "needs <path> and the direct integrator read as path (issue 37)"]
 fn mitsuba3_hello() {
     matches_mitsuba("mitsuba3-hello", "mitsuba-renderer+mitsuba-data/scenes/hello.xml");
 }
 
 #[test]
-#[ignore = "needs <ref> to an emitter declared by id at the top level (issue 37)"]
 fn mitsuba3_cbox_rgb() {
     matches_mitsuba("mitsuba3-cbox-rgb", "mitsuba-renderer+mitsuba-data/scenes/cbox/cbox-rgb.xml");
 }
@@ -98,13 +102,17 @@ fn mitsuba3_stokes_cbox() {
 }
 
 #[test]
-#[ignore = "needs the tent filter, an unknown integrator read as path and ignored film properties (issue 37)"]
+#[ignore = "needs the tent filter (issue 37)"]
 fn bitterli_cornell_box() {
-    matches_mitsuba("bitterli-cornell-box", "takkasila+practical_path_guiding_lab/scenes/cornell-box/scene.xml");
+    // The file's integrator is `$integrator`, by default a research integrator: replaced, as by --estimator pt.
+    let options = LoadOptions { replace_integrator: true, ..LoadOptions::default() };
+    matches_mitsuba_with("bitterli-cornell-box", "takkasila+practical_path_guiding_lab/scenes/cornell-box/scene.xml", &options);
 }
 
 #[test]
-#[ignore = "needs the tent filter, an unknown integrator read as path and ignored film properties (issue 37)"]
+#[ignore = "needs the tent filter (issue 37)"]
 fn bitterli_veach_mis() {
-    matches_mitsuba("bitterli-veach-mis", "takkasila+practical_path_guiding_lab/scenes/veach-mis/scene.xml");
+    // The file's integrator is `$integrator`, by default a research integrator: replaced, as by --estimator pt.
+    let options = LoadOptions { replace_integrator: true, ..LoadOptions::default() };
+    matches_mitsuba_with("bitterli-veach-mis", "takkasila+practical_path_guiding_lab/scenes/veach-mis/scene.xml", &options);
 }

@@ -93,8 +93,9 @@ fn bad_keys_and_types_name_the_key() {
             "shape[0].bsdf.reflectance",
             "invalid length 2",
         ),
-        ("[integrator]\nsamples_per_pixel = 4".into(), "", "missing field `sensor`"),
-        ("[sensor]\nfilm = { width = 4, height = 4 }".into(), "sensor", "missing field `fov`"),
+        ("[sensor]\nfov = 40\nfocal_length = \"35mm\"".into(), "sensor.focal_length", "either fov or focal_length"),
+        ("[sensor]\nfocal_length = \"wide\"".into(), "sensor.focal_length", "not a focal length"),
+        ("[sensor]\nfocal_length = \"-5mm\"".into(), "sensor.focal_length", "not a focal length"),
         (shape_with("bsdf = { reflectance = 0.5 }"), "shape[0].bsdf", "missing field `type`"),
         (
             minimal("[bsdf.a]\ntype = \"blendbsdf\"\nbsdf_0 = \"a\"\nbsdf_1 = { type = \"diffuse\" }\nweight = \"half\""),

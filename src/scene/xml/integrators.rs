@@ -1,7 +1,8 @@
 //! Mitsuba's integrator types and how caustica renders the image each one estimates. On a scene without
 //! participating media (caustica refuses media), the volumetric and differentiable path tracers estimate
 //! the image `path` does; `direct` is `path` with `max_depth = 2` (the emitters seen and one bounce of
-//! direct light); `aov` and `moment` wrap integrators, whose image is rendered. The rest are refused,
+//! direct light); `aov`, `moment` and `stokes` wrap integrators, whose image is rendered (their extra
+//! channels are not written). The rest are refused,
 //! unless the command line chose the estimator (`--estimator`), which replaces them.
 //!
 //! ```xml
@@ -34,7 +35,9 @@ const TYPES: &[(&str, Reading, &str)] = &[
     ("direct_projective", Reading::Path { max_depth: Some(2) }, DIRECT),
     ("aov", Reading::Inner, ""),
     ("moment", Reading::Inner, ""),
-    ("stokes", Reading::Refused("polarisation is out of caustica's scope"), ""),
+    // Polarisation is out of caustica's scope; in Mitsuba's RGB variants `stokes` adds Stokes channels
+    // to its nested integrator's image, which is what is rendered.
+    ("stokes", Reading::Inner, ""),
     ("depth", Reading::Refused("it renders depth, not radiance"), ""),
 ];
 
@@ -45,7 +48,7 @@ const DIRECT: &str = "direct illumination is the path tracer's image with max_de
 /// How integrator type `kind` is read.
 pub(crate) fn reading(kind: &str) -> Reading {
     TYPES.iter().find(|(t, ..)| *t == kind).map_or(
-        Reading::Refused("caustica renders Mitsuba's path, volpath, volpathmis, prb, prbvolpath, ptracer, direct, aov and moment integrators"),
+        Reading::Refused("caustica renders Mitsuba's path, volpath, volpathmis, prb, prbvolpath, ptracer, direct, aov, moment and stokes integrators"),
         |(_, r, _)| *r,
     )
 }
@@ -64,7 +67,8 @@ mod tests {
         assert_eq!(reading("volpath"), Reading::Path { max_depth: None });
         assert_eq!(reading("direct"), Reading::Path { max_depth: Some(2) });
         assert_eq!(reading("aov"), Reading::Inner);
-        assert!(matches!(reading("stokes"), Reading::Refused(w) if w.contains("polarisation")));
+        assert_eq!(reading("stokes"), Reading::Inner);
+        assert!(matches!(reading("depth"), Reading::Refused(w) if w.contains("depth")));
         assert!(matches!(reading("my_research_integrator"), Reading::Refused(_)));
     }
 }
