@@ -25,8 +25,16 @@ fn write(path: &Path, text: &str) {
     std::fs::write(path, text).unwrap();
 }
 
-fn load(path: &Path) -> Result<Scene, String> {
-    Scene::load(path).map_err(|e| e.to_string())
+fn load(path: &Path) -> Scene {
+    Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The error of loading `path`, which must fail.
+fn error(path: &Path) -> String {
+    match Scene::load(path) {
+        Ok(_) => panic!("{} loaded", path.display()),
+        Err(e) => e.to_string(),
+    }
 }
 
 const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="40"/>
@@ -47,20 +55,20 @@ fn path_elements_and_includes_find_files_as_mitsuba_does() {
     write(&d.join("parts/outer.xml"), r#"<scene version="3.0.0"><include filename="inner.xml"/></scene>"#);
     let scene = d.join("scene.xml");
     write(&scene, &format!(r#"<scene version="3.0.0"><path value="meshes"/>{SENSOR}<include filename="parts/outer.xml"/></scene>"#));
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert!(s.triangle_count() > 1000, "the teapot: {} triangles", s.triangle_count());
 
     // Without the <path>, the mesh is not found, and the error names it.
     write(&scene, &format!(r#"<scene version="3.0.0">{SENSOR}<include filename="parts/outer.xml"/></scene>"#));
-    let e = load(&scene).unwrap_err();
+    let e = error(&scene);
     assert!(e.contains("teapot.obj"), "{e}");
     // A <path> to a folder that does not exist names it.
     write(&scene, &format!(r#"<scene version="3.0.0"><path value="nowhere"/>{SENSOR}</scene>"#));
-    let e = load(&scene).unwrap_err();
+    let e = error(&scene);
     assert!(e.contains("scene.xml:1") && e.contains("\"nowhere\" not found"), "{e}");
     // An include found nowhere says where it was looked for.
     write(&scene, &format!(r#"<scene version="3.0.0">{SENSOR}<include filename="missing.xml"/></scene>"#));
-    let e = load(&scene).unwrap_err();
+    let e = error(&scene);
     assert!(e.contains("\"missing.xml\" not found"), "{e}");
 }
 
@@ -69,9 +77,9 @@ fn comments_with_double_dashes_parse_and_keep_line_numbers() {
     let d = dir("comments");
     let scene = d.join("scene.xml");
     write(&scene, &format!("<scene version=\"3.0.0\">\n<!-- a -- b --->\n{SENSOR}\n<!---->\n<shape type=\"cube\"><float name=\"bogus\" value=\"1\"/></shape></scene>"));
-    let e = load(&scene).unwrap_err();
-    // The error is on line 6 (the sensor spans lines 3-5): the comments kept every line.
-    assert!(e.contains("scene.xml:6") && e.contains("bogus"), "{e}");
+    let e = error(&scene);
+    // The error is on line 7 (the sensor spans lines 3-5, the empty comment is line 6): the comments kept every line.
+    assert!(e.contains("scene.xml:7") && e.contains("bogus"), "{e}");
 }
 
 #[test]
@@ -88,12 +96,12 @@ fn references_to_films_samplers_and_area_emitters() {
         <shape type="rectangle"><ref id="light"/><transform name="to_world"><translate z="-2"/></transform></shape>
         </scene>"#,
     );
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert_eq!((s.camera.width(), s.camera.height(), s.integrator.samples_per_pixel), (10, 4, 3));
     assert_eq!(s.lights.lights().len(), 1, "the area emitter is attached to the rectangle only");
     // A reference to the wrong kind of element names both.
     write(&scene, r#"<scene version="3.0.0"><bsdf type="diffuse" id="b"/><sensor type="perspective"><ref id="b"/></sensor></scene>"#);
-    let e = load(&scene).unwrap_err();
+    let e = error(&scene);
     assert!(e.contains("refers to a <bsdf>"), "{e}");
 }
 
@@ -104,7 +112,7 @@ fn sensor_defaults_are_mitsubas() {
     // No fov: Mitsuba's 50 mm focal length across the diagonal. Mitsuba 3.9.1 reports x_fov = 38.1848° for
     // `{'type': 'perspective'}` on its default 768×576 film (printed by `mi.load_dict`).
     write(&scene, r#"<scene version="3.0.0"><sensor type="perspective"/><shape type="cube"/></scene>"#);
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert_eq!((s.camera.width(), s.camera.height(), s.camera.fov_axis()), (768, 576, FovAxis::Diagonal));
     let (w, h) = (768.0f64, 576.0f64);
     let half_diag = (f64::from(s.camera.fov_deg()) / 2.0).to_radians().tan();
@@ -112,11 +120,11 @@ fn sensor_defaults_are_mitsubas() {
     assert!((x_fov - 38.1848).abs() < 1e-3, "x fov {x_fov}");
     // focal_length given.
     write(&scene, r#"<scene version="3.0.0"><sensor type="perspective"><string name="focal_length" value="35mm"/></sensor></scene>"#);
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert!((f64::from(s.camera.fov_deg()) - 2.0 * (36f64.hypot(24.0) / 70.0).atan().to_degrees()).abs() < 1e-4);
     // No sensor at all: Mitsuba 0.6's camera, 45° along x, from below the bounding box along +z.
     write(&scene, r#"<scene version="3.0.0"><shape type="cube"/></scene>"#);
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert_eq!((s.camera.fov_deg(), s.camera.fov_axis()), (45.0, FovAxis::X));
     let distance = 2.0 / (2.0 * 22.5f32.to_radians().tan());
     assert!((s.camera.position() - caustica::math::Vec3::new(0.0, 0.0, -1.0 - distance)).length() < 1e-5, "{:?}", s.camera.position());
@@ -128,20 +136,20 @@ fn integrators_read_as_path_or_replaced_by_the_command_line() {
     let scene = d.join("scene.xml");
     let with = |integrator: &str| format!(r#"<scene version="3.0.0">{integrator}{SENSOR}<shape type="cube"/></scene>"#);
     write(&scene, &with(r#"<integrator type="volpath"><integer name="max_depth" value="7"/><integer name="rr_depth" value="3"/></integrator>"#));
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert_eq!((s.integrator.max_depth, s.integrator.rr_depth), (7, 3));
     assert!(s.notes.iter().any(|n| n.kind == NoteKind::Reading && n.message.contains("volpath")), "{:?}", s.notes);
     write(&scene, &with(r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#));
-    assert_eq!(load(&scene).unwrap().integrator.max_depth, 2);
+    assert_eq!(load(&scene).integrator.max_depth, 2);
     write(&scene, &with(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal"/><integrator type="path"><integer name="max_depth" value="5"/></integrator></integrator>"#));
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     assert_eq!(s.integrator.max_depth, 5);
     assert!(s.notes.iter().any(|n| n.kind == NoteKind::Ignored && n.message.contains("aovs")), "{:?}", s.notes);
     write(&scene, &with(r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#));
-    assert!(load(&scene).unwrap_err().contains("hide_emitters"));
+    assert!(error(&scene).contains("hide_emitters"));
     // A research integrator: refused, naming the way out; replaced when the command line chooses.
     write(&scene, &with(r#"<integrator type="guided_path"><integer name="budget" value="30"/></integrator>"#));
-    let e = load(&scene).unwrap_err();
+    let e = error(&scene);
     assert!(e.contains("\"guided_path\"") && e.contains("--estimator"), "{e}");
     let s = Scene::load_with(&scene, &LoadOptions { replace_integrator: true, ..LoadOptions::default() }).unwrap();
     assert_eq!(s.integrator.max_depth, -1);
@@ -161,7 +169,7 @@ fn properties_that_change_no_image_are_noted_not_refused() {
         <sampler type="stratified"><boolean name="jitter" value="true"/></sampler></sensor>
         <emitter type="constant"><float name="sampling_weight" value="2"/></emitter></scene>"#,
     );
-    let s = load(&scene).unwrap();
+    let s = load(&scene);
     let ignored: Vec<&str> = s.notes.iter().filter(|n| n.kind == NoteKind::Ignored).map(|n| n.message.as_str()).collect();
     for name in ["focus_distance", "pixel_format", "banner", "jitter", "sampling_weight"] {
         assert!(ignored.iter().any(|m| m.contains(name)), "{name} not noted: {ignored:?}");
@@ -170,5 +178,5 @@ fn properties_that_change_no_image_are_noted_not_refused() {
     assert!(s.notes.iter().all(|n| n.file == scene && n.line > 0));
     // A property that would change the image is still refused.
     write(&scene, r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/></sensor></scene>"#);
-    assert!(load(&scene).unwrap_err().contains("principal_point_offset_x"));
+    assert!(error(&scene).contains("principal_point_offset_x"));
 }
