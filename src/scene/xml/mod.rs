@@ -56,6 +56,7 @@ mod convert;
 mod params;
 mod places;
 mod tree;
+mod upgrade;
 mod values;
 pub(crate) mod write;
 
