@@ -38,6 +38,12 @@
 //! with `<rgb>`, single-valued `<spectrum>` and `<float>` colours. Relative file names (meshes, maps,
 //! includes) are relative to the directory of the scene file given, as Mitsuba resolves them.
 //!
+//! **Versions.** `version` is three numbers, as Mitsuba 3 reads it; files of Mitsuba 0.4–0.6 (version before
+//! 2.0.0, e.g. `"0.5.0"`) are upgraded to 3.x in memory, each file by its own version (`upgrade`): camelCase
+//! names become snake_case (`toWorld` → `to_world`, `maxDepth`, `intIOR` …), as Mitsuba 3 does, and beyond
+//! Mitsuba 3, `<lookAt>`, `<srgb>`/`#rrggbb` colours and 0.6's copper default of conductors are read as 0.6
+//! rendered them. Plugins that exist only in 0.x (`ldrfilm`, …) are refused as any unsupported plugin.
+//!
 //! **caustica's extension.** The caustic photon map's settings (`[integrator.caustics]` in TOML) are
 //! properties of the path integrator prefixed `caustics_`: `<string name="caustics_estimator" value="mis"/>`,
 //! `<integer name="caustics_photons" …/>`, `caustics_caustic_photons`, `caustics_knn`, `<float
@@ -58,6 +64,7 @@ mod integrators;
 mod params;
 mod places;
 mod tree;
+mod upgrade;
 mod values;
 pub(crate) mod write;
 

@@ -121,13 +121,8 @@ pub(crate) fn parse_scene(text: &str, path: &Path, search: &mut SearchPath, dept
         return Err(root.error("the root element must be <scene version=\"3.0.0\">"));
     }
     root.check_attrs(&["version"])?;
-    let version = root.required("version")?;
-    let major = version.split('.').next().unwrap_or_default();
-    if !matches!(major, "2" | "3") {
-        return Err(root.error(format!(
-            "scene version {version:?} is not supported (Mitsuba 2 and 3 files: version 2.x or 3.x)"
-        )));
-    }
+    // Each file by its own version: Mitsuba 0.x files are upgraded to 3.x before their includes are spliced.
+    super::upgrade::upgrade_file(&mut root)?;
     let dir = path.parent().unwrap_or_else(|| Path::new(""));
     let children = std::mem::take(&mut root.children);
     for child in children {
