@@ -120,7 +120,7 @@ impl Converter {
     fn property_or_transform(&mut self, plugin: &Element, child: &Element, key: &str, table: &mut Table) -> Result<bool, SceneError> {
         if PROPERTY_TAGS.contains(&child.tag.as_str()) {
             let name = child.required("name")?;
-            let value = values::property_value(child)?;
+            let value = values::property_value(child, plugin)?;
             self.put(table, key, plugin, child, name, value)?;
             Ok(true)
         } else if child.tag == "transform" {
@@ -163,7 +163,7 @@ impl Converter {
                 return Err(unsupported(child, el));
             }
             let name = child.required("name")?;
-            let value = values::property_value(child)?;
+            let value = values::property_value(child, el)?;
             if let Some(rest) = name.strip_prefix(CAUSTICS_PREFIX) {
                 self.places.insert("integrator.caustics", Place::plugin(el));
                 self.put(&mut caustics, "integrator.caustics", el, child, rest, value)?;
@@ -230,7 +230,7 @@ impl Converter {
             }
             let name = child.attr("name").unwrap_or_default();
             if let Some(i) = CROP.iter().position(|c| *c == name) {
-                let Value::Integer(v) = values::property_value(child)? else {
+                let Value::Integer(v) = values::property_value(child, el)? else {
                     return Err(child.error(format!("{name} must be an <integer>")));
                 };
                 if crop[i].replace((v, child)).is_some() {
@@ -284,7 +284,7 @@ impl Converter {
                     )))
                 }
             };
-            let value = values::property_value(child)?;
+            let value = values::property_value(child, el)?;
             self.put(&mut table, "integrator", el, child, target, value)?;
             self.places.insert(&join_key("integrator", target), Place::property(el, child, name));
         }
