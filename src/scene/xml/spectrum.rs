@@ -261,8 +261,9 @@ mod tests {
     /// `b.k.value`); Mitsuba stores them as f32.
     const LIST: &str = "400:0.1, 500:0.5, 600:0.8, 700:0.9";
 
-    /// The test spectrum file (Mitsuba read the same text from `refl.spd`).
-    const SPD: &str = "# a test reflectance spectrum\n# wavelength(nm) value\n380 0.05\n450 0.2\n520 0.6   # peak\n600 0.4\n\n700 0.3\n780 0.25\n";
+    /// The spectrum file whose lines Mitsuba read (`<spectrum filename>` of a diffuse BSDF and of a `constant`
+    /// emitter, key `radiance.value`) for the `.spd` numbers below.
+    const SPD: &str = include_str!("../../../tests/data/xml/spectra-reflectance.spd");
 
     fn assert_rgb(name: &str, got: Colour, want: [f64; 3]) {
         let Colour::Rgb(got) = got else { panic!("{name}: {got:?} is not an RGB colour") };
