@@ -20,7 +20,10 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use caustica::bsdf::Bsdf;
 use caustica::film::Image;
+use caustica::light::Light;
+use caustica::math::Vec3;
 use caustica::photon::PhotonBudget;
 use caustica::render::{render_image, RenderSettings};
 use caustica::scene::{Estimator, Scene, SceneError};
@@ -173,7 +176,7 @@ irradiance = 0.5
         <rgb name="intensity" value="4, 3, 2"/>
     </emitter>
     <emitter type="spot">
-        <spectrum name="intensity" value="6"/>
+        <float name="intensity" value="6"/>
         <float name="cutoff_angle" value="30"/>
         <float name="beam_width" value="10"/>
         <transform name="to_world"><lookat origin="-1, 2.5, 0" target="0, 0.5, 0" up="0, 1, 0"/></transform>
@@ -195,6 +198,43 @@ irradiance = 0.5
     // Mitsuba refuses `position` together with `to_world`; so does caustica, at the XML property.
     let e = xml_error("<emitter type=\"point\">\n<point name=\"position\" value=\"0, 1, 0\"/>\n<transform name=\"to_world\"><translate y=\"1\"/></transform>\n</emitter>");
     assert_names(&e, &["bad.xml:4:", "<emitter type=\"point\"> property \"position\"", "not both"]);
+}
+
+/// `tests/data/xml/spectra.xml`: wavelength lists, a `.spd` file (next to the scene) and single values on a
+/// diffuse BSDF, a conductor's eta and k, an area and a point emitter read as Mitsuba 3.9.1's RGB variants
+/// read them. The numbers are Mitsuba's own for the same file: `mi.set_variant("scalar_rgb")`,
+/// `mi.traverse(mi.load_file("tests/data/xml/spectra.xml"))[key]` for the keys `list.reflectance.value`,
+/// `file.reflectance.value`, `metal.eta.value`, `metal.k.value`, `lamp.emitter.radiance.value` (a single
+/// value on an emitter: the sRGB colour of an equal-energy spectrum) and `point.intensity.value`.
+#[test]
+fn spectra_read_as_mitsubas_rgb_variants_read_them() {
+    let s = load("tests/data/xml/spectra.xml");
+    let assert_rgb = |what: &str, got: Vec3, want: [f32; 3]| {
+        assert!((0..3).all(|c| close(got[c], want[c], 1e-5)), "{what}: {got} vs Mitsuba's {want:?}");
+    };
+    let diffuse: Vec<Vec3> = s.bsdfs.iter().filter_map(|b| if let Bsdf::Diffuse { reflectance } = b { Some(*reflectance) } else { None }).collect();
+    // The two spectral ones and the lamp's default (0.5).
+    assert_eq!(diffuse.len(), 3, "{:?}", s.bsdfs);
+    let find = |want: [f32; 3]| *diffuse.iter().min_by(|a, b| (**a - Vec3::from(want)).length().total_cmp(&(**b - Vec3::from(want)).length())).expect("three");
+    let list = [0.8780154585838318, 0.6357789039611816, 0.2703421413898468];
+    let file = [0.3271156847476959, 0.5519921779632568, 0.21447068452835083];
+    assert_rgb("diffuse, wavelength list", find(list), list);
+    assert_rgb("diffuse, .spd file", find(file), file);
+    let Some(Bsdf::Conductor { eta_k: Some((eta, k)), .. }) = s.bsdfs.iter().find(|b| matches!(b, Bsdf::Conductor { .. })) else {
+        panic!("no conductor with eta and k: {:?}", s.bsdfs)
+    };
+    assert_rgb("conductor eta", *eta, [0.4732967019081116, 0.9254528880119324, 1.33051598072052]);
+    assert_rgb("conductor k", *k, [3.59898042678833, 2.9524238109588623, 2.261902332305908]);
+    let mut seen = 0;
+    for light in s.lights.lights() {
+        match light {
+            Light::Area(a) => assert_rgb("area radiance, one value", a.radiance(), [1.204793930053711, 0.948291003704071, 0.9089160561561584]),
+            Light::Point(p) => assert_rgb("point intensity, wavelength list", p.intensity(), [4.020614147186279, 2.3136820793151855, 1.2445323467254639]),
+            other => panic!("unexpected light {other:?}"),
+        }
+        seen += 1;
+    }
+    assert_eq!(seen, 2);
 }
 
 fn params(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
@@ -246,15 +286,20 @@ fn errors_name_file_line_and_plugin_or_property() {
     // A $ reference without value.
     let e = xml_error("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"$r\"/>\n</shape>");
     assert_names(&e, &["bad.xml:4:", "<float name=\"radius\">", "$r is not defined"]);
-    // Unsupported element, reconstruction filter, integrator, ref to nothing, a wavelength spectrum.
+    // Unsupported element, reconstruction filter, integrator, ref to nothing, a blackbody spectrum.
     let e = xml_error("<texture type=\"bitmap\"/>");
     assert_names(&e, &["bad.xml:3:", "<texture type=\"bitmap\">", "not supported"]);
     let e = xml_error("<integrator type=\"bdpt\"/>");
     assert_names(&e, &["bad.xml:3:", "<integrator type=\"bdpt\">"]);
     let e = xml_error("<shape type=\"cube\">\n <ref id=\"nothing\"/>\n</shape>");
     assert_names(&e, &["bad.xml:4:", "<ref id=\"nothing\">", "no element has id"]);
-    let e = xml_error("<emitter type=\"constant\">\n<spectrum name=\"radiance\" value=\"400:1, 700:2\"/>\n</emitter>");
-    assert_names(&e, &["bad.xml:4:", "single-valued"]);
+    let e = xml_error("<emitter type=\"constant\">\n<spectrum type=\"blackbody\" name=\"radiance\">\n<float name=\"temperature\" value=\"5000\"/>\n</spectrum>\n</emitter>");
+    assert_names(&e, &["bad.xml:4:", "<spectrum type=\"blackbody\" name=\"radiance\">", "spectral variants"]);
+    // Spectra: decreasing wavelengths, a missing file (named with the scene file's directory).
+    let e = xml_error("<shape type=\"cube\">\n<bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" value=\"500:1, 400:2\"/>\n</bsdf>\n</shape>");
+    assert_names(&e, &["bad.xml:5:", "<spectrum name=\"reflectance\">", "must increase"]);
+    let e = xml_error("<emitter type=\"constant\">\n<spectrum name=\"radiance\" filename=\"missing.spd\"/>\n</emitter>");
+    assert_names(&e, &["bad.xml:4:", "<spectrum name=\"radiance\">", &repo_path("tests/data/xml/missing.spd").display().to_string()]);
     let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"twosided\">\n <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/>\n</bsdf>\n</shape>");
     assert_names(&e, &["bad.xml:5:", "takes one nested BSDF"]);
     // The film's filter, inside the sensor.

@@ -186,11 +186,11 @@ impl<'a> Converter<'a> {
         if PROPERTY_TAGS.contains(&child.tag.as_str()) {
             let name = child.required("name")?;
             if let Some(why) = ignored::why(plugin, name) {
-                values::property_value(child)?;
+                values::property_value(child, plugin)?;
                 self.note_ignored(plugin, child, why);
                 return Ok(true);
             }
-            let mut value = values::property_value(child)?;
+            let mut value = values::property_value(child, plugin)?;
             if let (Value::String(written), "filename") = (&value, name) {
                 value = Value::String(self.resolve_file(child, written));
             }
@@ -280,11 +280,11 @@ impl<'a> Converter<'a> {
             }
             let name = child.required("name")?;
             if let Some(why) = ignored::why(el, name) {
-                values::property_value(child)?;
+                values::property_value(child, el)?;
                 self.note_ignored(el, child, why);
                 continue;
             }
-            let value = values::property_value(child)?;
+            let value = values::property_value(child, el)?;
             if let Some(rest) = name.strip_prefix(CAUSTICS_PREFIX) {
                 self.places.insert("integrator.caustics", Place::plugin(el));
                 self.put(&mut caustics, "integrator.caustics", el, child, rest, value)?;
@@ -369,7 +369,7 @@ impl<'a> Converter<'a> {
             }
             let name = child.attr("name").unwrap_or_default();
             if let Some(i) = CROP.iter().position(|c| *c == name) {
-                let Value::Integer(v) = values::property_value(child)? else {
+                let Value::Integer(v) = values::property_value(child, el)? else {
                     return Err(child.error(format!("{name} must be an <integer>")));
                 };
                 if crop[i].replace((v, child)).is_some() {
@@ -414,7 +414,7 @@ impl<'a> Converter<'a> {
             }
             let name = child.required("name")?;
             if let Some(why) = ignored::why(el, name) {
-                values::property_value(child)?;
+                values::property_value(child, el)?;
                 self.note_ignored(el, child, why);
                 continue;
             }
@@ -428,7 +428,7 @@ impl<'a> Converter<'a> {
                     )))
                 }
             };
-            let value = values::property_value(child)?;
+            let value = values::property_value(child, el)?;
             self.put(&mut table, "integrator", el, child, target, value)?;
             self.places.insert(&join_key("integrator", target), Place::property(el, child, name));
         }

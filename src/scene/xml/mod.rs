@@ -35,8 +35,12 @@
 //! (`independent`, `stratified`, `multijitter`, `orthogonal`, `ldsampler`: caustica's own deterministic
 //! sampler stands in for each) with `sample_count` and `seed`; `<integrator type="path">` with `max_depth`
 //! and `rr_depth`; every shape, BSDF and emitter type and property of the TOML format (see [`crate::scene`]),
-//! with `<rgb>`, single-valued `<spectrum>` and `<float>` colours. Relative file names (meshes, maps,
-//! includes) are relative to the directory of the scene file given, as Mitsuba resolves them.
+//! with `<rgb>`, `<float>` and `<spectrum>` colours. A `<spectrum>` (one value, `wavelength:value` pairs, or
+//! `filename="….spd"`) becomes the colour Mitsuba 3.9.1's RGB variants make of it (module `spectrum`): a
+//! wavelength list is integrated against the CIE 1931 colour matching functions, and one value is grey
+//! except as an emitted colour (`radiance`, `intensity`, `irradiance`), where it is the colour of an
+//! equal-energy spectrum in sRGB, `value × (1.2048, 0.9483, 0.9089)`. Relative file names (meshes, maps,
+//! spectra, includes) are relative to the directory of the scene file given, as Mitsuba resolves them.
 //!
 //! **Versions.** `version` is three numbers, as Mitsuba 3 reads it; files of Mitsuba 0.4–0.6 (version before
 //! 2.0.0, e.g. `"0.5.0"`) are upgraded to 3.x in memory, each file by its own version (`upgrade`): camelCase
@@ -50,7 +54,8 @@
 //! name="caustics_max_radius" …/>`. Mitsuba itself rejects these properties; a file meant for both
 //! renderers leaves them out (the default estimator `pt` is Mitsuba's path tracer).
 //!
-//! **Differences from Mitsuba.** A film without `<rfilter>` is read with the box filter (Mitsuba's default
+//! **Differences from Mitsuba.** Spectrum plugins (`<spectrum type="blackbody">`, ...) are refused, as
+//! Mitsuba's RGB variants cannot render them (its spectral variants can; caustica renders in RGB). A film without `<rfilter>` is read with the box filter (Mitsuba's default
 //! is a Gaussian, which blurs by about half a pixel). caustica's camera has no clip planes: a `near_clip`
 //! or `far_clip` is accepted only where it cuts no geometry (`build`), and an absent one is not Mitsuba's
 //! default (0.01 and 10⁴) but none at all.
@@ -58,11 +63,13 @@
 //! **Errors.** Anything not supported — an element, a plugin type, a property, an attribute, a `$name`
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.
 
+mod cie1931;
 mod convert;
 mod ignored;
 mod integrators;
 mod params;
 mod places;
+mod spectrum;
 mod tree;
 mod upgrade;
 mod values;
@@ -90,5 +97,6 @@ pub(crate) fn read_str(
     let mut search = tree::SearchPath::new(base_dir);
     let mut root = tree::parse_scene(text, name, &mut search, 0)?;
     params::substitute(&mut root, params, name)?;
+    spectrum::resolve_files(&mut root, &search);
     convert::convert(&root, &search, options)
 }

@@ -271,7 +271,7 @@ mod tests {
 
     /// The scene `xml` (read by the parser, upgraded) written back compactly, without the root's version.
     fn read(xml: &str) -> String {
-        let root = parse_scene(xml, Path::new("t.xml"), Path::new("."), 0).unwrap_or_else(|e| panic!("{e}"));
+        let root = parse_scene(xml, Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), 0).unwrap_or_else(|e| panic!("{e}"));
         root.children.iter().map(show).collect()
     }
 
@@ -301,7 +301,7 @@ mod tests {
             let out = read(&format!("<scene version=\"{version}\">{body}</scene>"));
             assert!(out.contains(&format!("name=\"{name}\"")), "{version}: {out}");
         }
-        let e = parse_scene("<scene version=\"3.0\"/>", Path::new("t.xml"), Path::new("."), 0).err().expect("refused");
+        let e = parse_scene("<scene version=\"3.0\"/>", Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), 0).err().expect("refused");
         assert!(e.to_string().contains("\"3.0\" is not a version number"), "{e}");
     }
 
@@ -442,7 +442,7 @@ mod tests {
         std::fs::write(dir.join("new.xml"), new).expect("write");
         let main = |version: &str, include: &str| {
             let text = format!("<scene version=\"{version}\"><include filename=\"{include}\"/><float name=\"someValue\" value=\"1\"/></scene>");
-            let root = parse_scene(&text, &dir.join("main.xml"), &dir, 0).unwrap_or_else(|e| panic!("{e}"));
+            let root = parse_scene(&text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), 0).unwrap_or_else(|e| panic!("{e}"));
             root.children.iter().map(show).collect::<String>()
         };
         assert_eq!(
@@ -455,7 +455,7 @@ mod tests {
         );
         // The included file's elements keep their file and line.
         let text = "<scene version=\"3.0.0\">\n<include filename=\"old.xml\"/>\n</scene>";
-        let root = parse_scene(text, &dir.join("main.xml"), &dir, 0).unwrap_or_else(|e| panic!("{e}"));
+        let root = parse_scene(text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), 0).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((root.children[0].file.as_path(), root.children[0].line), (dir.join("old.xml").as_path(), 1));
         std::fs::remove_dir_all(&dir).ok();
     }

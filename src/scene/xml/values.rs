@@ -1,8 +1,11 @@
 //! Property elements (`<float name="alpha" value="0.1"/>`, `<rgb …>`, `<point …>`, ...) → TOML values of
-//! the scene description. Lists of numbers are separated by commas and/or spaces, as in Mitsuba.
+//! the scene description. Lists of numbers are separated by commas and/or spaces, as in Mitsuba. `<spectrum>`
+//! is read by [`spectrum`](super::spectrum), as the RGB colour Mitsuba's RGB variants make of it, which depends
+//! on the plugin that reads it.
 
 use toml::Value;
 
+use super::spectrum;
 use super::tree::Element;
 use super::super::error::SceneError;
 
@@ -51,8 +54,12 @@ pub(crate) fn float_array(v: &[f64]) -> Value {
     Value::Array(v.iter().map(|&x| Value::Float(x)).collect())
 }
 
-/// The value of a property element (its tag is one of [`PROPERTY_TAGS`]).
-pub(crate) fn property_value(el: &Element) -> Result<Value, SceneError> {
+/// The value of a property element (its tag is one of [`PROPERTY_TAGS`]) of `plugin` (the element it is
+/// nested in: a spectrum's colour depends on the plugin and property, [`spectrum::ColourUse`]).
+pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, SceneError> {
+    if el.tag == "spectrum" {
+        return spectrum::property_value(el, plugin);
+    }
     let point = matches!(el.tag.as_str(), "point" | "vector");
     el.check_attrs(if point { &["name", "value", "x", "y", "z"] } else { &["name", "value"] })?;
     if point {
@@ -76,16 +83,6 @@ pub(crate) fn property_value(el: &Element) -> Result<Value, SceneError> {
                 1 => Value::Float(v[0]),
                 3 => float_array(&v),
                 n => return Err(el.error(format!("an rgb value needs 1 or 3 numbers, got {n}"))),
-            }
-        }
-        "spectrum" => {
-            if text.contains(':') {
-                return Err(el.error("only single-valued spectra (`value=\"0.5\"`) are supported; write wavelength-dependent values as <rgb>"));
-            }
-            let v = numbers(el, "value", text)?;
-            match v.as_slice() {
-                [x] => Value::Float(*x),
-                _ => return Err(el.error("only single-valued spectra (`value=\"0.5\"`) are supported; write wavelength-dependent values as <rgb>")),
             }
         }
         _ => return Err(el.error("not a property element")),
