@@ -112,9 +112,10 @@ pub fn read_serialized<R: Read + Seek>(mut reader: R, shape_index: u32, path: &P
 /// version of the file's first block, which every later block must repeat.
 fn read_block_header<R: Read>(reader: &mut R, expected: Option<u16>) -> Result<u16, String> {
     let mut header = [0u8; 4];
-    reader
-        .read_exact(&mut header)
-        .map_err(|_| "the file is shorter than the 4-byte header of a serialized mesh".to_string())?;
+    reader.read_exact(&mut header).map_err(|e| match e.kind() {
+        io::ErrorKind::UnexpectedEof => "the file is shorter than the 4-byte header of a serialized mesh".to_string(),
+        _ => format!("reading the header: {e}"),
+    })?;
     let id = u16::from_le_bytes([header[0], header[1]]);
     let version = u16::from_le_bytes([header[2], header[3]]);
     if id != FORMAT_ID {
