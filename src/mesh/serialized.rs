@@ -545,7 +545,7 @@ mod tests {
     }
 
     /// `tests/data/real/meshes/matpreview-2.serialized`: the first two shapes of Mitsuba's material-preview
-    /// mesh (version 3, see tests/data/README.md). The figures are Mitsuba 3.9.1's (scalar_rgb,
+    /// mesh (version 3, see tests/data/real/README.md). The figures are Mitsuba 3.9.1's (scalar_rgb,
     /// `mi.load_dict({'type': 'serialized', 'filename': …, 'shape_index': i})`, then `mi.traverse` for
     /// `vertex_positions` and `faces`; the box is the positions' min and max).
     #[test]
