@@ -9,7 +9,7 @@ pub enum MeshError {
     Io { path: PathBuf, error: std::io::Error },
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
-    #[error("{path}: unsupported mesh format (expected .obj, .ply or .ply.gz)")]
+    #[error("{path}: unsupported mesh format (expected .obj, .ply, .ply.gz or .serialized)")]
     UnsupportedFormat { path: PathBuf },
     #[error("{path}: triangle {triangle} refers to vertex {index}, but there are only {vertex_count} vertices")]
     IndexOutOfRange {
@@ -27,6 +27,20 @@ pub enum MeshError {
     },
     #[error("{path}: contains no triangles")]
     NoTriangles { path: PathBuf },
+    /// A Mitsuba `serialized` file that cannot be read (`mesh::serialized`); `shape` is the shape asked for.
+    #[error("{path}: shape {shape}: {message}")]
+    Serialized { path: PathBuf, shape: u32, message: String },
+    #[error("{path}: shape_index {index} is out of range: {}", shapes_held(*count))]
+    ShapeIndexOutOfRange { path: PathBuf, index: u32, count: u32 },
+}
+
+/// How many shapes a serialized file holds, and so which `shape_index` values it takes.
+fn shapes_held(count: u32) -> String {
+    match count {
+        0 => "the file's dictionary lists no shapes".into(),
+        1 => "the file holds 1 shape (shape_index 0)".into(),
+        n => format!("the file holds {n} shapes (shape_index 0 to {})", n - 1),
+    }
 }
 
 /// Errors from building an acceleration structure.

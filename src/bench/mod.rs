@@ -135,7 +135,7 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, 
 }
 
 /// Loads one benchmark input as a single triangle soup, with the name shown in the report.
-/// Mesh files (.obj, .ply, .ply.gz) and scene files (.toml or Mitsuba XML .xml with its parameters
+/// Mesh files (.obj, .ply, .ply.gz, .serialized) and scene files (.toml or Mitsuba XML .xml with its parameters
 /// `params`: every shape of the scene, flattened).
 pub fn load_input(path: &Path, params: &BTreeMap<String, String>) -> anyhow::Result<(String, TriangleMesh)> {
     let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) || crate::scene::is_xml(path);

@@ -14,7 +14,7 @@ use crate::film::io::write_json_atomic;
 /// Arguments of `caustica bench`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// Mesh files (.obj, .ply, .ply.gz) or scene files (.toml or Mitsuba 3 .xml, every shape flattened),
+    /// Mesh files (.obj, .ply, .ply.gz, .serialized) or scene files (.toml or Mitsuba 3 .xml, every shape flattened),
     /// each on its own.
     #[arg(required = true, value_name = "MESH_OR_SCENE")]
     pub inputs: Vec<PathBuf>,

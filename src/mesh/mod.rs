@@ -1,14 +1,16 @@
-//! Triangle meshes and the loaders that read them (OBJ via tobj, PLY and gzipped PLY).
+//! Triangle meshes and the loaders that read them (OBJ via tobj, PLY and gzipped PLY, Mitsuba's serialized).
 //!
 //! A [`TriangleMesh`] is an indexed triangle list with optional per-vertex normals and uvs.
 //! Scenes flatten all their meshes into one soup, so a triangle's index in the soup is the
 //! `prim` that both intersection backends report.
 //!
-//! [`load_mesh`] picks the reader from the file name (`.obj`, `.ply`, `.ply.gz`, any case) and
-//! checks what every backend relies on: finite coordinates and indices in range. Errors name the file.
+//! [`load_mesh`] picks the reader from the file name (`.obj`, `.ply`, `.ply.gz`, `.serialized`: its first
+//! shape; any case) and checks what every backend relies on: finite coordinates and indices in range.
+//! Errors name the file. A serialized file's other shapes: [`serialized::load_serialized`].
 
 pub mod obj;
 pub mod ply;
+pub mod serialized;
 pub mod shapes;
 
 use std::path::Path;
@@ -23,6 +25,8 @@ pub enum MeshFormat {
     Ply,
     /// A gzip-compressed PLY file (`.ply.gz`).
     PlyGz,
+    /// Mitsuba's serialized format (`.serialized`).
+    Serialized,
 }
 
 impl MeshFormat {
@@ -36,13 +40,16 @@ impl MeshFormat {
             Some(Self::Ply)
         } else if name.ends_with(".ply.gz") {
             Some(Self::PlyGz)
+        } else if name.ends_with(".serialized") {
+            Some(Self::Serialized)
         } else {
             None
         }
     }
 }
 
-/// Loads a triangle mesh from an OBJ, PLY or gzipped PLY file, chosen by extension (case-insensitive).
+/// Loads a triangle mesh from an OBJ, PLY, gzipped PLY or serialized file (the first shape), chosen by
+/// extension (case-insensitive).
 ///
 /// Polygons are triangulated as fans. The result has at least one triangle, only finite positions,
 /// normals and uvs, and every index in range.
@@ -51,6 +58,8 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
         Some(MeshFormat::Obj) => obj::load_obj(path)?,
         Some(MeshFormat::Ply) => ply::load_ply(path)?,
         Some(MeshFormat::PlyGz) => ply::load_ply_gz(path)?,
+        // (checked by the reader, which every caller goes through)
+        Some(MeshFormat::Serialized) => return Ok(serialized::load_serialized(path, 0)?.mesh),
         None => return Err(MeshError::UnsupportedFormat { path: path.to_path_buf() }),
     };
     mesh.validate(path)?;

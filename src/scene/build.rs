@@ -42,6 +42,11 @@ enum Geometry {
     File {
         path: PathBuf,
     },
+    /// Shape `shape_index` of a Mitsuba serialized file.
+    Serialized {
+        path: PathBuf,
+        shape_index: u32,
+    },
     Rectangle,
     Cube,
     Sphere {
@@ -135,7 +140,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let files = shape_plans
         .iter()
         .filter_map(|s| match &s.geometry {
-            Geometry::File { path } => Some((join_key(&s.key, "filename"), path)),
+            Geometry::File { path } | Geometry::Serialized { path, .. } => Some((join_key(&s.key, "filename"), path)),
             _ => None,
         })
         .chain(emitter_plans.iter().filter_map(|e| match e {
@@ -341,11 +346,13 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
 fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), SceneError> {
     let specific: &[&str] = match s.kind {
         ShapeType::Obj | ShapeType::Ply => &["filename", "face_normals"],
+        ShapeType::Serialized => &["filename", "shape_index", "face_normals"],
         ShapeType::Sphere => &["center", "radius", "rings", "segments", "face_normals"],
         ShapeType::Rectangle | ShapeType::Cube => &[],
     };
     let present = [
         ("filename", s.filename.is_some()),
+        ("shape_index", s.shape_index.is_some()),
         ("face_normals", s.face_normals.is_some()),
         ("center", s.center.is_some()),
         ("radius", s.radius.is_some()),
@@ -388,6 +395,16 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
             }
             Geometry::File {
                 path: base_dir.join(filename),
+            }
+        }
+        // Mitsuba reads any file name: the format id inside tells (`mesh::serialized`).
+        ShapeType::Serialized => {
+            let Some(filename) = &s.filename else {
+                return Err(ctx.key_error(key, "shape type `serialized` needs `filename`"));
+            };
+            Geometry::Serialized {
+                path: base_dir.join(filename),
+                shape_index: s.shape_index.unwrap_or(0),
             }
         }
         ShapeType::Rectangle => Geometry::Rectangle,
@@ -514,6 +531,16 @@ fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, 
         Geometry::File { path } => {
             let key = join_key(&plan.key, "filename");
             let mesh = crate::mesh::load_mesh(path).map_err(|e| ctx.asset_error(&key, path, e.to_string()))?;
+            check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
+            mesh
+        }
+        Geometry::Serialized { path, shape_index } => {
+            let key = join_key(&plan.key, "filename");
+            let asset_error = |e: crate::error::MeshError| match e {
+                crate::error::MeshError::ShapeIndexOutOfRange { .. } => ctx.key_error(&join_key(&plan.key, "shape_index"), e.to_string()),
+                _ => ctx.asset_error(&key, path, e.to_string()),
+            };
+            let mesh = crate::mesh::serialized::load_serialized(path, *shape_index).map_err(asset_error)?.mesh;
             check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
             mesh
         }

@@ -328,6 +328,7 @@ impl<'de> Deserialize<'de> for ToWorld {
 pub(crate) enum ShapeType {
     Obj,
     Ply,
+    Serialized,
     Rectangle,
     Cube,
     Sphere,
@@ -338,6 +339,7 @@ impl ShapeType {
         match self {
             ShapeType::Obj => "obj",
             ShapeType::Ply => "ply",
+            ShapeType::Serialized => "serialized",
             ShapeType::Rectangle => "rectangle",
             ShapeType::Cube => "cube",
             ShapeType::Sphere => "sphere",
@@ -351,6 +353,8 @@ pub(crate) struct ShapeDesc {
     #[serde(rename = "type")]
     pub kind: ShapeType,
     pub filename: Option<String>,
+    /// Which shape of a `serialized` file (default 0, its first).
+    pub shape_index: Option<u32>,
     pub face_normals: Option<bool>,
     pub flip_normals: Option<bool>,
     pub center: Option<[f32; 3]>,

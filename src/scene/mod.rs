@@ -36,7 +36,7 @@
 //! bsdf_1 = { type = "roughconductor", distribution = "ggx", alpha = 0.08 }   # default: beckmann
 //!
 //! [[shape]]
-//! type = "rectangle"           # obj | ply | rectangle | cube | sphere
+//! type = "rectangle"           # obj | ply | serialized | rectangle | cube | sphere
 //! to_world = [ { rotate = { axis = [1, 0, 0], angle = -90 } }, { translate = [0, -1, 0] } ]
 //! bsdf = "white"               # a name, or an inline table; absent: diffuse 0.5 (Mitsuba's default)
 //!
@@ -59,6 +59,12 @@
 //! face_normals = false         # true: flat shading (also allowed on spheres)
 //! flip_normals = false         # any shape: reverse orientation (and emission side)
 //! bsdf = { type = "twosided", bsdf = { type = "conductor" } }   # perfect mirror, both sides (one-sided alone)
+//!
+//! [[shape]]
+//! type = "serialized"          # Mitsuba's serialized mesh, versions 3 and 4 (`crate::mesh::serialized`)
+//! filename = "meshes/scene.serialized"
+//! shape_index = 2              # which shape of the file, default 0 (the first)
+//! face_normals = false         # as for obj / ply
 //!
 //! [[emitter]]
 //! type = "envmap"
@@ -91,7 +97,7 @@
 //!
 //! **Shapes** (`build`): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres are
 //! tessellated (128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius) with smooth normals; meshes
-//! use their vertex normals (angle-weighted normals are computed when the file has none) unless
+//! (obj, ply, serialized) use their vertex normals (angle-weighted normals are computed when the file has none) unless
 //! `face_normals = true`. Normals transform with the inverse transpose, and the winding of mirrored shapes
 //! is swapped so the geometric normal follows the shading normal. Each emitting shape becomes one area
 //! light; emitters with zero radiance, zero area or zero scale are left out.

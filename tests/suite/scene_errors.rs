@@ -390,6 +390,17 @@ fn bad_values_name_the_key() {
             "2^26",
         ),
         (minimal("[[shape]]\ntype = \"obj\""), "shape[0]", "needs `filename`"),
+        (minimal("[[shape]]\ntype = \"serialized\""), "shape[0]", "needs `filename`"),
+        (
+            minimal("[[shape]]\ntype = \"ply\"\nfilename = \"a.ply\"\nshape_index = 1"),
+            "shape[0].shape_index",
+            "does not apply to shape type `ply`",
+        ),
+        (
+            minimal("[[shape]]\ntype = \"serialized\"\nfilename = \"a.serialized\"\nshape_index = -1"),
+            "shape[0].shape_index",
+            "-1",
+        ),
         (
             minimal("[[shape]]\ntype = \"obj\"\nfilename = \"a.ply\""),
             "shape[0].filename",
@@ -465,6 +476,19 @@ fn references_files_and_syntax() {
         "shape[0].filename",
     );
     assert!(msg.contains("cannot load"), "{msg}");
+    // A serialized file: another format, and a shape the file does not hold (the key named is shape_index).
+    std::fs::write(dir.join("garbage.serialized"), "ply\nformat ascii 1.0\n").unwrap();
+    let msg = error_of(
+        &minimal("[[shape]]\ntype = \"serialized\"\nfilename = \"garbage.serialized\""),
+        "shape[0].filename",
+    );
+    assert!(msg.contains("cannot load") && msg.contains("not a Mitsuba serialized mesh"), "{msg}");
+    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/meshes/matpreview-2.serialized");
+    let msg = error_of(
+        &minimal(&format!("[[shape]]\ntype = \"serialized\"\nfilename = {:?}\nshape_index = 7", real.display().to_string())),
+        "shape[0].shape_index",
+    );
+    assert!(msg.contains("shape_index 7 is out of range") && msg.contains("2 shapes"), "{msg}");
 
     // Syntax errors carry line and column; key errors carry the line of the key.
     let err = Scene::from_toml_str(

@@ -26,7 +26,7 @@ use caustica::light::Light;
 use caustica::math::Vec3;
 use caustica::photon::PhotonBudget;
 use caustica::render::{render_image, RenderSettings};
-use caustica::scene::{Estimator, Scene, SceneError};
+use caustica::scene::{convert_scene, Estimator, Scene, SceneError};
 use common::*;
 
 /// TOML scene → its XML twin written by Mitsuba, and the least fraction of pixels equal to 1e-4.
@@ -345,4 +345,90 @@ fn a_mitsuba_0_6_file_is_upgraded_to_its_3_x_twin() {
     }
     let (sa, sb) = (load("tests/data/xml/legacy-0.6.xml"), load("tests/data/xml/legacy-0.6-twin.xml"));
     assert_same_scene("legacy-0.6.xml", &sa, &sb);
+}
+
+/// A scene with Mitsuba's `serialized` shapes, `{kind}`/`{ext}` so that the same scene names PLY files:
+/// two shapes of one file (`shape_index` 0 with `face_normals` and a `to_world`, then 1), lit by a
+/// constant emitter and a small area light.
+fn serialized_scene(kind: &str, files: [&str; 2]) -> String {
+    let index = |i: usize| if kind == "serialized" { format!("<integer name=\"shape_index\" value=\"{i}\"/>") } else { String::new() };
+    format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="4, -5, 3" target="0, 0, 0.7" up="0, 0, 1"/></transform>
+    </sensor>
+    <shape type="{kind}">
+        <string name="filename" value="{}"/>{}
+        <boolean name="face_normals" value="true"/>
+        <transform name="to_world"><rotate z="1" angle="30"/><translate x="-0.5"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.3, 0.2"/></bsdf>
+    </shape>
+    <shape type="{kind}">
+        <string name="filename" value="{}"/>{}
+        <bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.3"/><rotate x="1" angle="180"/><translate z="3"/></transform>
+        <emitter type="area"><rgb name="radiance" value="20, 20, 20"/></emitter>
+    </shape>
+    <emitter type="constant"><rgb name="radiance" value="0.2, 0.2, 0.2"/></emitter>
+</scene>
+"#,
+        files[0],
+        index(0),
+        files[1],
+        index(1)
+    )
+}
+
+/// `<shape type="serialized">` in XML: Mitsuba's own file (`tests/data/real/meshes/matpreview-2.serialized`,
+/// version 3, two shapes) loads each shape asked for and renders the image of the same scene given as PLY
+/// files of those meshes, bit for bit; a `shape_index` past the file's shapes names the property, its line
+/// and how many shapes the file holds.
+#[test]
+fn serialized_shapes_in_xml_render_as_their_ply_twins() {
+    let meshes = repo_path("tests/data/real/meshes");
+    let file = "matpreview-2.serialized";
+    let text = serialized_scene("serialized", [file, file]);
+    let load = |text: &str, dir: &Path| Scene::from_xml_str(text, dir, Path::new("serialized.xml"), &BTreeMap::new()).unwrap_or_else(|e| panic!("{e}"));
+    let mut a = load(&text, &meshes);
+    // Mitsuba 3.9.1's counts for shapes 0 and 1 (see `mesh::serialized`'s test), the light's 2 triangles.
+    assert_eq!(a.mesh.triangle_count(), 512 + 3936 + 2);
+    assert_eq!(a.tri_flat.iter().filter(|&&f| f).count(), 512 + 2, "shape 0 and the rectangle are flat");
+
+    // The PLY twin: each shape as caustica reads it, written as PLY (positions, normals, uvs).
+    let dir = std::env::temp_dir().join(format!("caustica-serialized-xml-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for i in 0..2u32 {
+        let shape = caustica::mesh::serialized::load_serialized(&meshes.join(file), i).unwrap();
+        let mut bytes = Vec::new();
+        caustica::mesh::ply::write_ply(&shape.mesh, &mut bytes).unwrap();
+        std::fs::write(dir.join(format!("shape{i}.ply")), bytes).unwrap();
+    }
+    let mut b = load(&serialized_scene("ply", ["shape0.ply", "shape1.ply"]), &dir);
+    assert_same_scene("serialized.xml", &a, &b);
+
+    // `caustica convert` keeps shape_index: XML → TOML → XML, and the TOML builds the same triangles.
+    let real = meshes.join(file).display().to_string();
+    let xml_path = dir.join("serialized.xml");
+    std::fs::write(&xml_path, serialized_scene("serialized", [&real, &real])).unwrap();
+    let toml_path = dir.join("serialized.toml");
+    let toml_text = convert_scene(&xml_path, &toml_path, &BTreeMap::new()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(toml_text.contains("shape_index = 1"), "{toml_text}");
+    std::fs::write(&toml_path, &toml_text).unwrap();
+    let xml_again = convert_scene(&toml_path, &dir.join("again.xml"), &BTreeMap::new()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(xml_again.contains("<integer name=\"shape_index\" value=\"1\"/>"), "{xml_again}");
+    let c = Scene::load(&toml_path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((&c.mesh.positions, &c.mesh.indices), (&a.mesh.positions, &a.mesh.indices));
+    std::fs::remove_dir_all(&dir).ok();
+
+    let (ia, ib) = (tiny_render(&mut a), tiny_render(&mut b));
+    assert!(ia.mean_luminance() > 1e-3, "the image is black");
+    let differing = ia.pixels().iter().zip(ib.pixels()).filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits)).count();
+    assert_eq!(differing, 0, "{differing} pixels differ");
+
+    let bad = text.replacen("value=\"1\"/>", "value=\"2\"/>", 1);
+    let e = Scene::from_xml_str(&bad, &meshes, Path::new("bad.xml"), &BTreeMap::new()).err().expect("shape_index 2 of 2 shapes");
+    assert_names(&e, &["bad.xml:13:", "property \"shape_index\"", "holds 2 shapes (shape_index 0 to 1)"]);
 }

@@ -22,7 +22,7 @@ use super::super::settings::defaults;
 fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
         "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" => "float",
-        "width" | "height" | "rings" | "segments" => "integer",
+        "width" | "height" | "rings" | "segments" | "shape_index" => "integer",
         "face_normals" | "flip_normals" | "sample_visible" => "boolean",
         "filename" | "material" | "distribution" | "fov_axis" => "string",
         "center" | "position" => "point",
