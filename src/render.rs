@@ -414,7 +414,8 @@ pub fn render_share(
             })
             .collect();
         // Tiles left out (Ctrl-C, or the time limit) come back as None; finished tiles are kept (the film
-        // counts samples per pixel, so every pixel's mean stays unbiased). Ctrl-C marks the render partial;
+        // counts samples per pixel, or their filter weights, so every pixel stays the weighted mean of the
+        // samples that reached it). Ctrl-C marks the render partial;
         // a pass cut by the time limit is the last one, reported to `on_pass` if any tile finished, and its
         // samples are not counted in `spp` (they cover only some pixels).
         let unfinished = results.iter().any(Option::is_none);

@@ -6,7 +6,7 @@
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B), and with a
-//!   filter wider than a pixel one [`PixelWeight`] more (56 B; tile buffers are not counted);
+//!   filter wider than a pixel one [`PixelWeight`] more (64 B; tile buffers are not counted);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 180 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
