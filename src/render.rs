@@ -415,9 +415,9 @@ pub fn render_share(
             .collect();
         // Tiles left out (Ctrl-C, or the time limit) come back as None; finished tiles are kept (the film
         // counts samples per pixel, or their filter weights, so every pixel stays the weighted mean of the
-        // samples that reached it). Ctrl-C marks the render partial;
-        // a pass cut by the time limit is the last one, reported to `on_pass` if any tile finished, and its
-        // samples are not counted in `spp` (they cover only some pixels).
+        // samples that reached it). Ctrl-C marks the render partial; a pass cut by the time limit is the
+        // last one, reported to `on_pass` if any tile finished, and its samples are not counted in `spp`
+        // (they cover only some pixels).
         let unfinished = results.iter().any(Option::is_none);
         let finished_tiles = results.iter().flatten().count();
         for (buf, ps) in results.into_iter().flatten() {

@@ -589,7 +589,7 @@ impl Film {
         };
         let sum = w.weight.to_f64();
         let n_eff = sum * sum / w.weight_sq;
-        if !(n_eff > 1.0) {
+        if n_eff.is_nan() || n_eff <= 1.0 {
             return None;
         }
         let v = luminance_f64(self.value(i));

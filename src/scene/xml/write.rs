@@ -3,11 +3,12 @@
 //! are written in Rust's shortest round-trip form, transforms as their list of operations), so a TOML →
 //! XML → TOML conversion builds the same scene, bit for bit.
 //!
-//! Written explicitly because Mitsuba's defaults differ from caustica's: the sample count (Mitsuba 4,
+//! Written explicitly because Mitsuba's default differs from caustica's: the sample count (Mitsuba 4,
 //! caustica [`defaults::SAMPLES_PER_PIXEL`]). The reconstruction filter is written when the scene names
-//! one (both renderers default to the same Gaussian). caustica-only settings keep their documented forms: the caustic photon map's settings as
-//! the path integrator's `caustics_*` properties, a sphere's `rings` and `segments`. Mitsuba refuses both
-//! (it rejects properties no plugin reads); a scene without them is written as plain Mitsuba 3.
+//! one (both renderers default to the same Gaussian). caustica-only settings keep their documented forms:
+//! the caustic photon map's settings as the path integrator's `caustics_*` properties, a sphere's `rings`
+//! and `segments`. Mitsuba refuses both (it rejects properties no plugin reads); a scene without them is
+//! written as plain Mitsuba 3.
 //!
 //! The description must come from a scene that builds (`convert_scene` builds it first), so every key is
 //! one the format knows; a key this writer does not know is an error, never dropped.
