@@ -8,6 +8,7 @@
 //! fov_axis = "smaller"     # x (default, as Mitsuba) | y | diagonal | smaller | larger
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 128, 256] }   # crop = [x0, y0, x1, y1], exclusive
+//! # film.rfilter = { type = "box" }   # the pixel reconstruction filter (`film::filter`; default gaussian)
 //! ```
 //!
 //! Conventions (Mitsuba's): in camera space the camera looks along +z with +y up and **+x to the left of the
@@ -16,6 +17,7 @@
 //! The crop window only selects which pixels are rendered; rays are those of the full film. There is no
 //! near clip (rays start at the camera position).
 
+use crate::film::PixelFilter;
 use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
@@ -69,6 +71,8 @@ pub struct Camera {
     width: u32,
     height: u32,
     crop: Rect,
+    /// How the film reconstructs pixels from the samples (the film's `rfilter`).
+    filter: PixelFilter,
     /// tan of half the field of view along film x and film y.
     tan_half: Vec2,
 }
@@ -94,6 +98,7 @@ impl Camera {
             width: 1,
             height: 1,
             crop: Rect::new(0, 0, 1, 1),
+            filter: PixelFilter::default(),
             tan_half: Vec2::ONE,
         };
         camera.set_resolution(width, height)?;
@@ -114,6 +119,17 @@ impl Camera {
     #[must_use]
     pub fn crop(&self) -> Rect {
         self.crop
+    }
+
+    /// The film's reconstruction filter ([`PixelFilter::default`] unless set).
+    #[must_use]
+    pub fn filter(&self) -> PixelFilter {
+        self.filter
+    }
+
+    /// Sets the film's reconstruction filter (checked by the caller: `PixelFilter::checked`).
+    pub fn set_filter(&mut self, filter: PixelFilter) {
+        self.filter = filter;
     }
 
     #[must_use]

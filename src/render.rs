@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::accel::Accel;
 use crate::film::{Film, FilmError, TileBuffer};
 use crate::integrator::{CausticEstimator, EyePath, GatherBuffers, GatherMemory, GatherScratch, PathStats, PathTracer, Q1Range, Wave};
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
 use crate::sampler::Sampler;
 use crate::scene::settings::defaults;
@@ -341,13 +341,14 @@ pub fn render_share(
                 if cancel.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
                     return None;
                 }
-                // Sample `s` of pixel (x, y): its camera ray and its sampler (past the pixel position).
+                // Sample `s` of pixel (x, y): its camera ray, its sampler (past the pixel position) and its
+                // position in the pixel (uniform, as Mitsuba's `render_sample`; where a wide filter weighs it).
                 let camera_sample = |x: u32, y: u32, s: u32| {
                     let mut sampler = Sampler::for_pixel(settings.seed, u64::from(y) * width + u64::from(x), u64::from(s));
                     let j = sampler.next_2d();
-                    (scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y), sampler)
+                    (scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y), sampler, j)
                 };
-                let mut buf = TileBuffer::new(*tile);
+                let mut buf = film.tile_buffer(*tile);
                 let mut ps = PathStats::default();
                 // The gather's buffers, and its memory of recent searches (`GatherScratch`).
                 let (mut buffers, mut memory) = (GatherBuffers::default(), GatherMemory::default());
@@ -358,6 +359,8 @@ pub fn render_share(
                 let mut paths = Vec::with_capacity(pixels.len());
                 // Per pixel, the sum and count of its finite samples so far in this pass.
                 let mut sums = vec![(Vec3::ZERO, 0u32); pixels.len()];
+                // Per pixel, the current sample's position in the pixel.
+                let mut offsets = vec![Vec2::ZERO; pixels.len()];
                 // With a photon map the gather's roulette reads earlier samples (method.md §3.1): the mean
                 // of the pixel's finite samples so far in this pass (until it has one, the previous pixel's),
                 // and the memory of recent searches. So a pixel's first sample runs alone, in pixel order
@@ -367,19 +370,19 @@ pub fn render_share(
                 // apart: +46 % searches on teapot-glossy). Without a photon map nothing is read.
                 let reads = tracer.reads_earlier_samples();
                 // A sample's radiance into the film and, where finite, into its pixel's sum.
-                let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), l: Vec3| {
+                let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), offset: Vec2, l: Vec3| {
                     if l.is_finite() {
                         *sum = (sum.0 + l, sum.1 + 1);
                     }
-                    buf.add(x, y, l);
+                    buf.add_at(x, y, offset, l);
                 };
                 let mut memories = Vec::with_capacity(if reads { pixels.len() } else { 1 });
                 let first = if reads {
                     let mut mean = Vec3::ZERO;
                     for (&(x, y), sum) in pixels.iter().zip(&mut sums) {
-                        let (ray, sampler) = camera_sample(x, y, spp_done);
+                        let (ray, sampler, offset) = camera_sample(x, y, spp_done);
                         let l = tracer.li(ray, sampler, mean, &mut ps, &mut GatherScratch::new(&mut buffers, &mut memory));
-                        record((x, y), sum, l);
+                        record((x, y), sum, offset, l);
                         if sum.1 > 0 {
                             mean = sum.0;
                         }
@@ -393,16 +396,17 @@ pub fn render_share(
                 for s in spp_done + first..spp_done + this_pass {
                     paths.clear();
                     let mut mean = Vec3::ZERO;
-                    paths.extend(pixels.iter().zip(&sums).map(|(&(x, y), &(sum, n))| {
+                    paths.extend(pixels.iter().zip(&sums).zip(&mut offsets).map(|((&(x, y), &(sum, n)), offset)| {
                         if n > 0 {
                             mean = sum / n as f32;
                         }
-                        let (ray, sampler) = camera_sample(x, y, s);
+                        let (ray, sampler, j) = camera_sample(x, y, s);
+                        *offset = j;
                         EyePath::new(ray, sampler, mean)
                     }));
                     tracer.trace_wave(&mut paths, &mut wave, &mut ps, &mut buffers, &mut memories);
-                    for ((&pixel, sum), path) in pixels.iter().zip(&mut sums).zip(&paths) {
-                        record(pixel, sum, path.radiance());
+                    for (((&pixel, sum), path), &offset) in pixels.iter().zip(&mut sums).zip(&paths).zip(&offsets) {
+                        record(pixel, sum, offset, path.radiance());
                     }
                 }
                 on_tile(u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * u64::from(this_pass));
@@ -410,9 +414,10 @@ pub fn render_share(
             })
             .collect();
         // Tiles left out (Ctrl-C, or the time limit) come back as None; finished tiles are kept (the film
-        // counts samples per pixel, so every pixel's mean stays unbiased). Ctrl-C marks the render partial;
-        // a pass cut by the time limit is the last one, reported to `on_pass` if any tile finished, and its
-        // samples are not counted in `spp` (they cover only some pixels).
+        // counts samples per pixel, or their filter weights, so every pixel stays the weighted mean of the
+        // samples that reached it). Ctrl-C marks the render partial; a pass cut by the time limit is the
+        // last one, reported to `on_pass` if any tile finished, and its samples are not counted in `spp`
+        // (they cover only some pixels).
         let unfinished = results.iter().any(Option::is_none);
         let finished_tiles = results.iter().flatten().count();
         for (buf, ps) in results.into_iter().flatten() {
@@ -485,7 +490,7 @@ pub enum RenderImageError {
 /// progress, no cancellation: the one-call form used by tests and reports.
 pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings: &RenderSettings) -> Result<RenderedImage, RenderImageError> {
     let accel = crate::accel::build_accel(backend, &scene.mesh.positions, &scene.mesh.indices)?;
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop())?;
+    let mut film = Film::for_camera(&scene.camera)?;
     let cancel = AtomicBool::new(false);
     let t = Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;

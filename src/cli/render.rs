@@ -228,7 +228,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
 
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
     let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), crop_window(&scene))?;
+    let mut film = Film::for_camera(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
         None => Share::All,

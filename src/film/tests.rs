@@ -1,6 +1,7 @@
 //! Unit tests of the accumulation film.
 
 use super::*;
+use crate::math::Vec2;
 
 #[test]
 fn tiles_cover_crop_once_in_scan_order() {
@@ -165,4 +166,145 @@ fn tile_buffer_reset_reuses_for_another_tile() {
     film.merge_tile(&buffer).unwrap();
     assert_eq!(film.image().get(3, 3), Vec3::ONE);
     assert_eq!(film.total_samples(), 1);
+}
+
+/// One sample splats `w = f(cₓ − pₓ)·f(c_y − p_y)` into every pixel whose centre `c` is within the radius
+/// (and nothing elsewhere); each reached pixel's value is the sample's; the weight sums are exact.
+#[test]
+fn a_splat_reaches_the_pixels_within_the_radius_with_the_filters_weights() {
+    for filter in [PixelFilter::default(), PixelFilter::Tent { radius: 1.5 }, PixelFilter::Lanczos { lobes: 3 }, PixelFilter::CatmullRom] {
+        let mut film = Film::with_filter(12, 10, Rect::new(0, 0, 12, 10), filter).unwrap();
+        let tile = Rect::new(4, 4, 8, 8);
+        let mut b = film.tile_buffer(tile);
+        let (x, y, o) = (5u32, 6u32, Vec2::new(0.3, 0.75));
+        b.add_at(x, y, o, Vec3::new(2.0, 1.0, 0.5));
+        film.merge_tile(&b).unwrap();
+        let (r, t) = (filter.radius(), filter::FilterTable::new(&filter));
+        for j in 0..10u32 {
+            for i in 0..12u32 {
+                // As the splat computes it: the pixel's offset, then its centre, then the sample's.
+                let (dx, dy) = ((i as f32 - x as f32) + 0.5 - o.x, (j as f32 - y as f32) + 0.5 - o.y);
+                let k = (j * 12 + i) as usize;
+                let w = film.weights()[k].weight.to_f64();
+                let expect = if dx.abs() < r && dy.abs() < r { f64::from(t.weight(dx) * t.weight(dy)) } else { 0.0 };
+                assert_eq!(w, expect, "{filter}: pixel ({i}, {j})");
+                if w != 0.0 {
+                    let v = film.image().get(i, j);
+                    assert!((v - Vec3::new(2.0, 1.0, 0.5)).abs().max_element() < 1e-6, "{filter}: pixel ({i}, {j}) = {v}");
+                }
+            }
+        }
+        // The sample counts in its own pixel only.
+        assert_eq!(film.total_samples(), 1);
+        assert_eq!(film.pixel(x, y).unwrap().count, 1);
+    }
+}
+
+/// Under a wide filter tiles splat into their neighbours' pixels: the film is the same bits whatever the
+/// merge order, each pixel is `Σ w·L / Σ w`, and pixels at the crop's edge only get what lies inside it.
+#[test]
+fn filtered_tiles_merge_in_any_order_into_the_weighted_mean() {
+    let filter = PixelFilter::default();
+    let t = filter::FilterTable::new(&filter);
+    let crop = Rect::new(1, 1, 9, 8);
+    let film = Film::with_filter(10, 9, crop, filter).unwrap();
+    let tiles = film.tiles(3);
+    let offset = |x: u32, y: u32, s: u32| {
+        let mut r = crate::sampler::Sampler::for_key(11, u64::from(y * 100 + x), u64::from(s));
+        r.next_2d()
+    };
+    let buffers: Vec<TileBuffer> = tiles
+        .iter()
+        .map(|&t| {
+            let mut b = film.tile_buffer(t);
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    for s in 0..4 {
+                        b.add_at(x, y, offset(x, y, s), sample_value(x, y, s));
+                    }
+                }
+            }
+            b
+        })
+        .collect();
+    let (mut a, mut b) = (film.clone(), film.clone());
+    for buf in &buffers {
+        a.merge_tile(buf).unwrap();
+    }
+    for buf in buffers.iter().rev() {
+        b.merge_tile(buf).unwrap();
+    }
+    assert_eq!(a.sums(), b.sums());
+    assert_eq!(a.weights().iter().map(|w| w.weight).collect::<Vec<_>>(), b.weights().iter().map(|w| w.weight).collect::<Vec<_>>());
+    assert_eq!(a.image(), b.image());
+    assert_eq!(a.total_samples(), 8 * 7 * 4);
+    // Pixel values against a direct f64 evaluation of Σ w·L / Σ w over every sample of the crop.
+    for py in crop.y0..crop.y1 {
+        for px in crop.x0..crop.x1 {
+            let (mut num, mut den) = (Vec3::ZERO.as_dvec3(), 0.0f64);
+            for y in crop.y0..crop.y1 {
+                for x in crop.x0..crop.x1 {
+                    for s in 0..4 {
+                        let o = offset(x, y, s);
+                        let w = t.weight((px as f32 - x as f32) + 0.5 - o.x) * t.weight((py as f32 - y as f32) + 0.5 - o.y);
+                        num += (sample_value(x, y, s) * w).as_dvec3();
+                        den += f64::from(w);
+                    }
+                }
+            }
+            let got = a.image().get(px - crop.x0, py - crop.y0).as_dvec3();
+            assert!((got - num / den).abs().max_element() < 1e-5, "pixel ({px}, {py}): {got} vs {}", num / den);
+        }
+    }
+    // The box film's tiles and other filters' films do not mix.
+    let mut boxed = Film::with_crop(10, 9, crop).unwrap();
+    assert!(matches!(boxed.merge_tile(&buffers[0]), Err(FilmError::FilterMismatch { .. })));
+    assert!(matches!(boxed.add_film(&a), Err(FilmError::FilterMismatch { .. })));
+}
+
+/// A non-finite sample under a filter adds its weights (a zero-valued sample), its count, not its value.
+#[test]
+fn non_finite_samples_under_a_filter_weigh_as_zero() {
+    let mut film = Film::with_filter(5, 5, Rect::new(0, 0, 5, 5), PixelFilter::Tent { radius: 1.0 }).unwrap();
+    let mut b = film.tile_buffer(Rect::new(0, 0, 5, 5));
+    b.add_at(2, 2, Vec2::splat(0.5), Vec3::splat(4.0));
+    b.add_at(2, 2, Vec2::splat(0.5), Vec3::new(f32::NAN, 0.0, 0.0));
+    assert_eq!((b.nan_count(), b.inf_count()), (1, 0));
+    film.merge_tile(&b).unwrap();
+    assert_eq!(film.image().get(2, 2), Vec3::splat(2.0));
+    assert_eq!(film.pixel(2, 2).unwrap().count, 2);
+    assert_eq!(film.nan_count(), 1);
+    // Its variance counts it as a 0: samples 4 and 0 of equal weight, s²/n = 8/2.
+    assert!((film.value_variance(2, 2).unwrap() - 4.0).abs() < 1e-9, "{:?}", film.value_variance(2, 2));
+}
+
+/// The statistics under a filter: the value's variance is the ratio estimator's, which is `s²/n` for
+/// `w = 1`, and `n ·` it is the per-sample variance.
+#[test]
+fn value_variance_follows_the_weights() {
+    for filter in [PixelFilter::Box, PixelFilter::Tent { radius: 1.0 }] {
+        let mut film = Film::with_filter(3, 1, Rect::new(0, 0, 3, 1), filter).unwrap();
+        let mut b = film.tile_buffer(Rect::new(0, 0, 3, 1));
+        let samples = [(1.0f32, 0.5f32), (2.0, 0.25), (3.0, 0.75), (6.0, 0.5)];
+        for (v, o) in samples {
+            b.add_at(1, 0, Vec2::new(o, 0.5), Vec3::splat(v));
+        }
+        film.merge_tile(&b).unwrap();
+        let vv = film.value_variance(1, 0).unwrap();
+        let expect = if filter.is_box() {
+            // s² = (4 + 1 + 0 + 9)/3 around the mean 3.
+            14.0 / 3.0 / 4.0
+        } else {
+            // Weights on pixel 1 along x at offsets 0, ±0.25 from its centre (the y weight is 1 there).
+            let t = filter::FilterTable::new(&filter);
+            let w: Vec<f64> = samples.iter().map(|&(_, o)| f64::from(t.weight(0.5 - o))).collect();
+            let sw: f64 = w.iter().sum();
+            let sw2: f64 = w.iter().map(|w| w * w).sum();
+            let v: f64 = samples.iter().zip(&w).map(|(&(y, _), w)| f64::from(y) * w).sum::<f64>() / sw;
+            let n_eff = sw * sw / sw2;
+            samples.iter().zip(&w).map(|(&(y, _), w)| w * w * (f64::from(y) - v).powi(2)).sum::<f64>() / (sw * sw) * n_eff / (n_eff - 1.0)
+        };
+        assert!((vv - expect).abs() < 1e-9, "{filter}: {vv} vs {expect}");
+        assert!((film.luminance_variance(1, 0).unwrap() - 4.0 * vv).abs() < 1e-9, "{filter}");
+    }
 }

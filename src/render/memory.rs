@@ -5,7 +5,8 @@
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
-//! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B);
+//! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B), and with a
+//!   filter wider than a pixel one [`PixelWeight`] more (64 B; tile buffers are not counted);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 180 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
@@ -19,7 +20,7 @@
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
 
-use crate::film::PixelSum;
+use crate::film::{PixelSum, PixelWeight};
 use crate::math::Vec3;
 use crate::photon::counts::MAX_CELLS_PER_PHOTON;
 use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
@@ -44,7 +45,8 @@ impl MemoryEstimate {
         let m = &scene.mesh;
         let vertex = size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
         let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1 + size_of::<TriangleShading>() as u64));
-        let film = scene.camera.crop().area().saturating_mul(size_of::<PixelSum>() as u64);
+        let per_pixel = size_of::<PixelSum>() + if scene.camera.filter().is_box() { 0 } else { size_of::<PixelWeight>() };
+        let film = scene.camera.crop().area().saturating_mul(per_pixel as u64);
         let photon_map = if photon_pass_needed(scene, settings.estimator).is_ok() { photon_map_bytes(settings.photons) } else { 0 };
         Self { mesh, film, photon_map }
     }

@@ -212,7 +212,7 @@ pub fn describe_budget(b: PhotonBudget) -> String {
 /// `on_row` sees every pass's figures. The comparison's own time is not counted (see
 /// [`crate::render::PassInfo::seconds`]).
 pub fn run_estimator(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings, mut tracker: ErrorTracker, cancel: &AtomicBool, mut on_row: impl FnMut(&PassInfo, &PassError)) -> anyhow::Result<EstimatorRun> {
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop())?;
+    let mut film = Film::for_camera(&scene.camera)?;
     let mut metric_error: Option<anyhow::Error> = None;
     let stats = render(
         scene,

@@ -15,7 +15,10 @@
 use std::path::{Path, PathBuf};
 
 use super::delta_light;
-use super::desc::{AreaEmitterType, EmitterDesc, EmitterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld, TransformOp};
+use super::desc::{
+    AreaEmitterType, EmitterDesc, EmitterType, RFilterDesc, RFilterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld,
+    TransformOp,
+};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
 use super::settings::{check, CausticsSettings, IntegratorSettings};
@@ -25,6 +28,7 @@ use super::xml::Places;
 use super::Scene;
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError, FovAxis};
+use crate::film::PixelFilter;
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
@@ -315,6 +319,10 @@ fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
             .set_crop(crate::math::Rect::new(x0, y0, x1, y1))
             .map_err(|e| ctx.key_error("sensor.film.crop", e.to_string()))?;
     }
+    camera.set_filter(match &s.film.rfilter {
+        Some(d) => rfilter(ctx, d)?,
+        None => PixelFilter::default(),
+    });
     Ok(camera)
 }
 
@@ -340,6 +348,35 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
             Ok((fov as f32, FovAxis::Diagonal, KEY))
         }
     }
+}
+
+/// `[sensor.film.rfilter]` → the filter: only the type's own parameters, Mitsuba's defaults for those left
+/// out (`film::filter::defaults`), each checked (`PixelFilter::checked`).
+fn rfilter(ctx: &ErrorContext, d: &RFilterDesc) -> Result<PixelFilter, SceneError> {
+    use crate::film::filter::defaults as fd;
+    let key = "sensor.film.rfilter";
+    let (name, own): (&str, &[&str]) = match d.kind {
+        RFilterType::Box => ("box", &[]),
+        RFilterType::Tent => ("tent", &["radius"]),
+        RFilterType::Gaussian => ("gaussian", &["stddev"]),
+        RFilterType::Mitchell => ("mitchell", &["B", "C"]),
+        RFilterType::CatmullRom => ("catmullrom", &[]),
+        RFilterType::Lanczos => ("lanczos", &["lobes"]),
+    };
+    let present = [("radius", d.radius.is_some()), ("stddev", d.stddev.is_some()), ("B", d.b.is_some()), ("C", d.c.is_some()), ("lobes", d.lobes.is_some())];
+    if let Some((p, _)) = present.iter().find(|(p, there)| *there && !own.contains(p)) {
+        let has = if own.is_empty() { "it has none".to_string() } else { format!("its parameters: {}", own.join(", ")) };
+        return Err(ctx.key_error(&join_key(key, p), format!("`{p}` does not apply to rfilter type `{name}` ({has})")));
+    }
+    let filter = match d.kind {
+        RFilterType::Box => PixelFilter::Box,
+        RFilterType::Tent => PixelFilter::Tent { radius: d.radius.unwrap_or(fd::TENT_RADIUS) },
+        RFilterType::Gaussian => PixelFilter::Gaussian { stddev: d.stddev.unwrap_or(fd::GAUSSIAN_STDDEV) },
+        RFilterType::Mitchell => PixelFilter::Mitchell { b: d.b.unwrap_or(fd::MITCHELL_B), c: d.c.unwrap_or(fd::MITCHELL_C) },
+        RFilterType::CatmullRom => PixelFilter::CatmullRom,
+        RFilterType::Lanczos => PixelFilter::Lanczos { lobes: d.lobes.unwrap_or(fd::LANCZOS_LOBES) },
+    };
+    filter.checked().map_err(|e| ctx.key_error(&join_key(key, e.parameter), e.message))
 }
 
 /// Rejects keys that do not apply to the shape's type.

@@ -104,6 +104,8 @@ pub(crate) struct FilmDesc {
     pub width: u32,
     pub height: u32,
     pub crop: Option<[u32; 4]>,
+    /// The pixel reconstruction filter; none: [`crate::film::PixelFilter::default`] (Mitsuba's Gaussian).
+    pub rfilter: Option<RFilterDesc>,
 }
 
 impl Default for FilmDesc {
@@ -113,8 +115,36 @@ impl Default for FilmDesc {
             width: 768,
             height: 576,
             crop: None,
+            rfilter: None,
         }
     }
+}
+
+/// `[sensor.film.rfilter]`: Mitsuba's `rfilter` plugin with its parameters (`film::filter`); which
+/// parameters apply to which type, their defaults and ranges are decided in `build`.
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RFilterDesc {
+    #[serde(rename = "type")]
+    pub kind: RFilterType,
+    pub radius: Option<f32>,
+    pub stddev: Option<f32>,
+    #[serde(rename = "B")]
+    pub b: Option<f32>,
+    #[serde(rename = "C")]
+    pub c: Option<f32>,
+    pub lobes: Option<u32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum RFilterType {
+    Box,
+    Tent,
+    Gaussian,
+    Mitchell,
+    CatmullRom,
+    Lanczos,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]

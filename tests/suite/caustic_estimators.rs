@@ -174,7 +174,7 @@ photons = 50000
 [sensor]
 fov = 40
 to_world = { look_at = { origin = [0, 1, 4], target = [0, 0, 0], up = [0, 1, 0] } }
-film = { width = 24, height = 16 }
+film = { width = 24, height = 16, rfilter = { type = "box" } }
 [[shape]]
 type = "rectangle"
 to_world = [ { scale = 2 }, { rotate = { axis = [1, 0, 0], angle = -90 } } ]

@@ -23,7 +23,7 @@ samples_per_pixel = 2
 [sensor]
 fov = 40
 to_world = { look_at = { origin = [0, 1, 4], target = [0, 0, 0], up = [0, 1, 0] } }
-film = { width = 8, height = 6 }
+film = { width = 8, height = 6, rfilter = { type = "box" } }
 [[shape]]
 type = "rectangle"
 to_world = [ { rotate = { axis = [1, 0, 0], angle = -90 } } ]

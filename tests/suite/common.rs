@@ -156,7 +156,7 @@ pub struct Rendered {
 pub fn render_with_variance(scene: &Scene, backend: BackendKind, settings: &RenderSettings) -> Rendered {
     let accel = build_accel(backend, &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{e}"));
     let Rect { x0, y0, x1, y1 } = scene.camera.crop();
-    let mut film = Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop()).expect("film");
+    let mut film = Film::for_camera(&scene.camera).expect("film");
     let cancel = AtomicBool::new(false);
     let t = std::time::Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {}).unwrap_or_else(|e| panic!("{e}"));
@@ -167,10 +167,10 @@ pub fn render_with_variance(scene: &Scene, backend: BackendKind, settings: &Rend
     let mut sample_var = Vec::with_capacity(lum.lum.len());
     for y in y0..y1 {
         for x in x0..x1 {
-            let p = film.pixel(x, y).expect("pixel in crop");
-            let s2 = p.luminance_variance().unwrap_or_else(|| panic!("pixel ({x}, {y}) has {} samples; need ≥ 2", p.count));
+            let count = film.pixel(x, y).expect("pixel in crop").count;
+            let s2 = film.luminance_variance(x, y).unwrap_or_else(|| panic!("pixel ({x}, {y}) has {count} samples; need ≥ 2"));
             sample_var.push(s2);
-            lum.var[((y - y0) * (x1 - x0) + (x - x0)) as usize] = s2 / p.count as f64;
+            lum.var[((y - y0) * (x1 - x0) + (x - x0)) as usize] = film.value_variance(x, y).expect("variance");
         }
     }
     Rendered { image, lum, sample_var, stats, seconds }

@@ -53,7 +53,7 @@ fn floor_scene(extra: &str) -> String {
 [sensor]
 fov = 31.6
 to_world = {{ look_at = {{ origin = [0, 3, 0], target = [0, 0, 0], up = [0, 0, -1] }} }}
-film = {{ width = 32, height = 32 }}
+film = {{ width = 32, height = 32, rfilter = {{ type = "box" }} }}
 
 [[shape]]
 type = "rectangle"

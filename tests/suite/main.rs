@@ -21,6 +21,7 @@ mod convert;
 mod delta_lights;
 mod embree_backend;
 mod film_io;
+mod filters;
 mod fuzz;
 mod long_delta_chains;
 mod mesh_load;

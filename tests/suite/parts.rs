@@ -15,7 +15,7 @@ use crate::common;
 use std::sync::atomic::AtomicBool;
 
 use caustica::accel::build_accel;
-use caustica::film::{Film, Image};
+use caustica::film::{Film, Image, PixelFilter};
 use caustica::photon::PhotonBudget;
 use caustica::render::part::{self, check_set, merge_parts, read_part, write_part, MergeError, Part, PartError, PartFile, PartInfo};
 use caustica::render::{render_share, RenderSettings, Share, TILE_SIZE};
@@ -41,7 +41,7 @@ fn settings(scene: &Scene, estimator: Estimator, spp: u32, pass_spp: u32) -> Ren
 }
 
 fn new_film(scene: &Scene) -> Film {
-    Film::with_crop(scene.camera.width(), scene.camera.height(), scene.camera.crop()).expect("film")
+    Film::for_camera(&scene.camera).expect("film")
 }
 
 fn render(scene: &Scene, accel: &dyn caustica::accel::Accel, s: &RenderSettings, share: Share) -> (Film, caustica::render::RenderPhaseStats) {
@@ -114,6 +114,36 @@ fn merged_parts_are_bit_identical_to_the_whole_render() {
                     assert!((m.lum_sq - w.lum_sq).abs() <= 1e-12 * w.lum_sq.abs(), "{what}: Σ Y² {} vs {}", m.lum_sq, w.lum_sq);
                 }
             }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Under Mitsuba's default Gaussian filter a tile's samples splat into its neighbours' pixels, which other
+/// parts render: the parts' films (weights included, through their files) still add up to the whole.
+#[test]
+fn merged_parts_under_a_gaussian_filter_are_bit_identical() {
+    let mut scene = small_cornell();
+    scene.camera.set_filter(PixelFilter::default());
+    let accel = build_accel(backend(), &scene.mesh.positions, &scene.mesh.indices).expect("accel");
+    let dir = temp_dir("gaussian");
+    // Shares of the passes (2 passes, N = 2) and of the tiles (1 pass, N = 2 and 4).
+    for (spp, pass_spp, n) in [(2, 1, 2), (2, u32::MAX, 2), (2, u32::MAX, 4)] {
+        for est in [Estimator::Pt, Estimator::Mis] {
+            let s = settings(&scene, est, spp, pass_spp);
+            let (whole, _) = render(&scene, accel.as_ref(), &s, Share::All);
+            let parts: Vec<PartFile> = (0..n).rev().map(|i| part_file(&dir, &scene, accel.as_ref(), &s, Part { index: i, count: n })).collect();
+            assert!(parts.iter().all(|p| p.film.filter() == PixelFilter::default()));
+            let (merged, _) = merge_parts(parts, false).unwrap_or_else(|e| panic!("{e}"));
+            let what = format!("{est:?}, {spp} spp, pass spp {pass_spp}, N = {n}");
+            let (a, b) = (bits(&merged.image()), bits(&whole.image()));
+            let differing = a.iter().zip(&b).filter(|(p, q)| p != q).count();
+            assert_eq!(differing, 0, "{what}: {differing} of {} pixels differ", a.len());
+            assert!(whole.image().mean_luminance() > 0.05, "{what}: black");
+            for (m, w) in merged.weights().iter().zip(whole.weights()) {
+                assert_eq!(m.weight, w.weight, "{what}: the exact weight sums differ");
+            }
+            assert_eq!(merged.total_samples(), whole.total_samples(), "{what}");
         }
     }
     let _ = std::fs::remove_dir_all(&dir);

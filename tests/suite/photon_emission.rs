@@ -43,7 +43,7 @@ fn scene_toml() -> String {
 [sensor]
 fov = 40
 to_world = {{ look_at = {{ origin = [0, 3, 6], target = [0, 0, 0], up = [0, 1, 0] }} }}
-film = {{ width = 16, height = 12 }}
+film = {{ width = 16, height = 12, rfilter = {{ type = "box" }} }}
 
 [[shape]]   # mirror: y = 0, facing +y
 type = "rectangle"

@@ -64,25 +64,21 @@ fn matches_mitsuba_with(name: &str, file: &str, options: &LoadOptions) {
 }
 
 #[test]
-#[ignore = "needs the Mitsuba 0.x upgrade, wavelength spectra, the gaussian filter, ldsampler and ignored properties (issue 37)"]
 fn lajolla_cbox_v0_4() {
     matches_mitsuba("lajolla-cbox-v0.4", "BachiLi+lajolla_public/scenes/cbox/cbox.xml");
 }
 
 #[test]
-#[ignore = "needs the Mitsuba 0.x upgrade, the gaussian filter and ignored film properties (issue 37)"]
 fn lajolla_sphere_v0_5() {
     matches_mitsuba("lajolla-sphere-v0.5", "BachiLi+lajolla_public/scenes/disney_bsdf_test/simple_sphere.xml");
 }
 
 #[test]
-#[ignore = "needs wavelength spectra, the gaussian filter and ignored properties (focus_distance) (issue 37)"]
 fn mitsuba2_cbox() {
     matches_mitsuba("mitsuba2-cbox", "mitsuba-renderer+mitsuba-data@23350ff0c9d8/scenes/cbox/cbox.xml");
 }
 
 #[test]
-#[ignore = "needs <path> and the gaussian filter (issue 37)"]
 fn mitsuba2_twosided_cbox() {
     matches_mitsuba("mitsuba2-twosided-cbox", "mitsuba-renderer+mitsuba-data@23350ff0c9d8/docs/scenes/bsdf_twosided_cbox.xml");
 }
@@ -104,7 +100,6 @@ fn mitsuba3_stokes_cbox() {
 }
 
 #[test]
-#[ignore = "needs the tent filter (issue 37)"]
 fn bitterli_cornell_box() {
     // The file's integrator is `$integrator`, by default a research integrator: replaced, as by --estimator pt.
     let options = LoadOptions { replace_integrator: true, ..LoadOptions::default() };
@@ -112,7 +107,6 @@ fn bitterli_cornell_box() {
 }
 
 #[test]
-#[ignore = "needs the tent filter (issue 37)"]
 fn bitterli_veach_mis() {
     // The file's integrator is `$integrator`, by default a research integrator: replaced, as by --estimator pt.
     let options = LoadOptions { replace_integrator: true, ..LoadOptions::default() };

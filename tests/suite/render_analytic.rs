@@ -86,7 +86,7 @@ rr_depth = 2
 [sensor]
 fov = 90
 to_world = {{ look_at = {{ origin = [0, 0, 0], target = [0.3, 0.2, -1], up = [0, 1, 0] }} }}
-film = {{ width = 32, height = 32 }}
+film = {{ width = 32, height = 32, rfilter = {{ type = "box" }} }}
 
 [[shape]]
 type = "sphere"
@@ -121,7 +121,7 @@ rr_depth = 1
 [sensor]
 fov = 40
 to_world = { look_at = { origin = [0, 0.5, 5], target = [0, 0, 0], up = [0, 1, 0] } }
-film = { width = 64, height = 64 }
+film = { width = 64, height = 64, rfilter = { type = "box" } }
 
 [[shape]]
 type = "sphere"
@@ -262,7 +262,7 @@ max_depth = -1
 [sensor]
 fov = 30
 to_world = {{ look_at = {{ origin = [0, 0, 4], target = [0, 0, 0], up = [0, 1, 0] }} }}
-film = {{ width = 64, height = 64 }}
+film = {{ width = 64, height = 64, rfilter = {{ type = "box" }} }}
 
 [[shape]]
 type = "sphere"

@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use caustica::bsdf::Bsdf;
-use caustica::film::Image;
+use caustica::film::{Image, PixelFilter};
 use caustica::light::Light;
 use caustica::math::Vec3;
 use caustica::photon::PhotonBudget;
@@ -302,10 +302,29 @@ fn errors_name_file_line_and_plugin_or_property() {
     assert_names(&e, &["bad.xml:4:", "<spectrum name=\"radiance\">", &repo_path("tests/data/xml/missing.spd").display().to_string()]);
     let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"twosided\">\n <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/>\n</bsdf>\n</shape>");
     assert_names(&e, &["bad.xml:5:", "takes one nested BSDF"]);
-    // The film's filter, inside the sensor.
-    let text = "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"40\"/>\n<film type=\"hdrfilm\">\n<rfilter type=\"gaussian\"/>\n</film>\n</sensor>\n</scene>\n";
-    let e = Scene::from_xml_str(text, Path::new("."), Path::new("bad.xml"), &BTreeMap::new()).err().expect("gaussian rejected");
-    assert_names(&e, &["bad.xml:5:", "<rfilter type=\"gaussian\">"]);
+    // The film's filter: its type and parameters, checked at their elements.
+    let load = |f: &str| {
+        let text = format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"40\"/>\n<film type=\"hdrfilm\">\n{f}\n</film>\n</sensor>\n<shape type=\"cube\"/>\n</scene>\n");
+        Scene::from_xml_str(&text, Path::new("."), Path::new("bad.xml"), &BTreeMap::new())
+    };
+    let e = load("<rfilter type=\"blackman\"/>").err().expect("unknown filter");
+    assert_names(&e, &["bad.xml:5:", "blackman"]);
+    let e = load("<rfilter type=\"gaussian\">\n<float name=\"radius\" value=\"2\"/>\n</rfilter>").err().expect("a gaussian's radius");
+    assert_names(&e, &["bad.xml:6:", "radius", "does not apply to rfilter type `gaussian`"]);
+    let e = load("<rfilter type=\"gaussian\">\n<float name=\"stddev\" value=\"-1\"/>\n</rfilter>").err().expect("a negative stddev");
+    assert_names(&e, &["bad.xml:6:", "stddev"]);
+    let e = load("<rfilter type=\"lanczos\">\n<integer name=\"lobes\" value=\"0\"/>\n</rfilter>").err().expect("no lobes");
+    assert_names(&e, &["bad.xml:6:", "lobes"]);
+    let e = load("<rfilter type=\"box\">\n<shape type=\"cube\"/>\n</rfilter>").err().expect("a plugin in a filter");
+    assert_names(&e, &["bad.xml:6:", "not supported"]);
+    let filter = |f: &str| load(f).unwrap_or_else(|e| panic!("{f}: {e}")).camera.filter();
+    assert_eq!(filter(""), PixelFilter::Gaussian { stddev: 0.5 }, "Mitsuba's default");
+    assert_eq!(filter("<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"0.25\"/></rfilter>"), PixelFilter::Gaussian { stddev: 0.25 });
+    assert_eq!(filter("<rfilter type=\"mitchell\"><float name=\"C\" value=\"0.5\"/></rfilter>"), PixelFilter::Mitchell { b: 1.0 / 3.0, c: 0.5 });
+    assert_eq!(filter("<rfilter name=\"rfilter\" type=\"lanczos\"/>"), PixelFilter::Lanczos { lobes: 3 });
+    assert_eq!(filter("<rfilter type=\"tent\"/>"), PixelFilter::Tent { radius: 1.0 });
+    assert_eq!(filter("<rfilter type=\"catmullrom\"/>"), PixelFilter::CatmullRom);
+    assert_eq!(filter("<rfilter type=\"box\"/>"), PixelFilter::Box);
     // Not XML.
     let e = xml_error("<shape type=\"cube\">");
     assert!(matches!(e, SceneError::XmlSyntax { .. }), "{e}");

@@ -95,7 +95,7 @@ knn = {knn}
 fov = 50
 fov_axis = "x"
 to_world = {{ look_at = {{ origin = {cam}, target = {target}, up = [0, 1, 0] }} }}
-film = {{ width = {w}, height = {h} }}
+film = {{ width = {w}, height = {h}, rfilter = {{ type = "box" }} }}
 
 [[shape]]   # floor y = 0, 3 x 3
 type = "rectangle"
@@ -335,7 +335,7 @@ knn = 20
 [sensor]
 fov = 70
 to_world = { look_at = { origin = [0, 0.3, 0.8], target = [0, -0.5, 0], up = [0, 1, 0] } }
-film = { width = 24, height = 24 }
+film = { width = 24, height = 24, rfilter = { type = "box" } }
 [bsdf.mirror]
 type = "conductor"
 specular_reflectance = 1
@@ -394,7 +394,7 @@ knn = 20
 fov = 50
 fov_axis = "x"
 to_world = {{ look_at = {{ origin = {origin}, target = {target}, up = [0, 1, 0] }} }}
-film = {{ width = 32, height = 24 }}"#
+film = {{ width = 32, height = 24, rfilter = {{ type = "box" }} }}"#
     )
 }
 
@@ -504,7 +504,7 @@ fn crop_windows_on_the_border_render_the_full_films_pixels() {
         let render_crop = |crop: Option<[u32; 4]>| {
             let mut text = scene(&Params::default());
             if let Some([x0, y0, x1, y1]) = crop {
-                text = text.replace(&format!("film = {{ width = {w}, height = {h} }}"), &format!("film = {{ width = {w}, height = {h}, crop = [{x0}, {y0}, {x1}, {y1}] }}"));
+                text = text.replace(&format!("film = {{ width = {w}, height = {h}, "), &format!("film = {{ width = {w}, height = {h}, crop = [{x0}, {y0}, {x1}, {y1}], "));
                 assert!(text.contains("crop = ["), "the template's film changed");
             }
             let scene = Scene::from_toml_str(&text, &common::repo_path("tests"), std::path::Path::new("crop")).unwrap();

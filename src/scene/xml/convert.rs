@@ -364,7 +364,7 @@ impl<'a> Converter<'a> {
             let is_rfilter = child.tag == "rfilter" || (child.tag == "ref" && self.deref(child, "rfilter").is_ok());
             if is_rfilter && !rfilter_seen {
                 rfilter_seen = true;
-                rfilter(self.deref(child, "rfilter")?)?;
+                table.insert("rfilter".into(), Value::Table(rfilter(self, self.deref(child, "rfilter")?)?));
                 continue;
             }
             let name = child.attr("name").unwrap_or_default();
@@ -607,17 +607,18 @@ impl<'a> Converter<'a> {
     }
 }
 
-/// `<rfilter>`: only the box filter, which is how caustica reconstructs pixels.
-fn rfilter(el: &Element) -> Result<(), SceneError> {
-    el.check_attrs(PLUGIN_ATTRS)?;
-    let kind = el.required("type")?;
-    if kind != "box" {
-        return Err(el.error(format!(
-            "reconstruction filter {kind:?} is not supported: caustica reconstructs pixels with the box filter (type=\"box\")"
-        )));
+/// `<rfilter type="…">` with its properties → `sensor.film.rfilter` (its types and parameters are checked
+/// by the deserialiser and `build`, reported at the element through the places recorded here).
+fn rfilter(c: &mut Converter, el: &Element) -> Result<Table, SceneError> {
+    let key = "sensor.film.rfilter";
+    let mut table = c.plugin_table(el, key)?;
+    for child in &el.children {
+        if !PROPERTY_TAGS.contains(&child.tag.as_str()) {
+            return Err(unsupported(child, el));
+        }
+        let name = child.required("name")?;
+        let value = values::property_value(child, el)?;
+        c.put(&mut table, key, el, child, name, value)?;
     }
-    if let Some(child) = el.children.first() {
-        return Err(child.error(format!("{} has no properties", el.label())));
-    }
-    Ok(())
+    Ok(table)
 }

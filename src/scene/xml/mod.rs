@@ -16,7 +16,7 @@
 //!         <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
 //!         <film type="hdrfilm">
 //!             <integer name="width" value="256"/><integer name="height" value="256"/>
-//!             <rfilter type="box"/>
+//!             <rfilter type="gaussian"><float name="stddev" value="0.5"/></rfilter>  <!-- the default -->
 //!         </film>
 //!     </sensor>
 //!     <include filename="materials.xml"/>                  <!-- relative to this file's directory -->
@@ -31,7 +31,9 @@
 //! BSDFs), `name` attributes of nested plugins (ignored: the nesting decides the role); `<transform>` with
 //! `translate`, `rotate`, `scale`, `matrix` (16 or 9 numbers) and `lookat`, applied in the order written;
 //! `<sensor type="perspective">` with `fov`, `fov_axis`, `near_clip`, `far_clip`; `<film type="hdrfilm">`
-//! with `width`, `height`, `crop_offset_x/y`, `crop_width/height`; `<rfilter type="box">`; `<sampler>`
+//! with `width`, `height`, `crop_offset_x/y`, `crop_width/height`; `<rfilter>` of every Mitsuba type with its
+//! properties (`box`, `tent` radius, `gaussian` stddev, `mitchell` B/C, `catmullrom`, `lanczos` lobes:
+//! `film::filter`); `<sampler>`
 //! (`independent`, `stratified`, `multijitter`, `orthogonal`, `ldsampler`: caustica's own deterministic
 //! sampler stands in for each) with `sample_count` and `seed`; `<integrator type="path">` with `max_depth`
 //! and `rr_depth`; every shape, BSDF and emitter type and property of the TOML format (see [`crate::scene`]),
@@ -55,8 +57,9 @@
 //! renderers leaves them out (the default estimator `pt` is Mitsuba's path tracer).
 //!
 //! **Differences from Mitsuba.** Spectrum plugins (`<spectrum type="blackbody">`, ...) are refused, as
-//! Mitsuba's RGB variants cannot render them (its spectral variants can; caustica renders in RGB). A film without `<rfilter>` is read with the box filter (Mitsuba's default
-//! is a Gaussian, which blurs by about half a pixel). caustica's camera has no clip planes: a `near_clip`
+//! Mitsuba's RGB variants cannot render them (its spectral variants can; caustica renders in RGB). None in
+//! the film: a film without `<rfilter>` gets Mitsuba's default, the Gaussian of σ = 0.5. caustica's camera
+//! has no clip planes: a `near_clip`
 //! or `far_clip` is accepted only where it cuts no geometry (`build`), and an absent one is not Mitsuba's
 //! default (0.01 and 10⁴) but none at all.
 //!

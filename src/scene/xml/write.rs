@@ -3,11 +3,12 @@
 //! are written in Rust's shortest round-trip form, transforms as their list of operations), so a TOML →
 //! XML → TOML conversion builds the same scene, bit for bit.
 //!
-//! Written explicitly because Mitsuba's defaults differ from caustica's: the sample count (Mitsuba 4,
-//! caustica [`defaults::SAMPLES_PER_PIXEL`]) and the box reconstruction filter (Mitsuba's default is a
-//! Gaussian). caustica-only settings keep their documented forms: the caustic photon map's settings as
-//! the path integrator's `caustics_*` properties, a sphere's `rings` and `segments`. Mitsuba refuses both
-//! (it rejects properties no plugin reads); a scene without them is written as plain Mitsuba 3.
+//! Written explicitly because Mitsuba's default differs from caustica's: the sample count (Mitsuba 4,
+//! caustica [`defaults::SAMPLES_PER_PIXEL`]). The reconstruction filter is written when the scene names
+//! one (both renderers default to the same Gaussian). caustica-only settings keep their documented forms:
+//! the caustic photon map's settings as the path integrator's `caustics_*` properties, a sphere's `rings`
+//! and `segments`. Mitsuba refuses both (it rejects properties no plugin reads); a scene without them is
+//! written as plain Mitsuba 3.
 //!
 //! The description must come from a scene that builds (`convert_scene` builds it first), so every key is
 //! one the format knows; a key this writer does not know is an error, never dropped.
@@ -21,8 +22,8 @@ use super::super::settings::defaults;
 /// The XML tag of each property key of the description (colours are `<rgb>` or `<float>` by value).
 fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
-        "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" => "float",
-        "width" | "height" | "rings" | "segments" | "shape_index" => "integer",
+        "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" | "stddev" | "B" | "C" => "float",
+        "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
         "face_normals" | "flip_normals" | "sample_visible" => "boolean",
         "filename" | "material" | "distribution" | "fov_axis" => "string",
         "center" | "position" => "point",
@@ -217,7 +218,7 @@ impl Writer {
         self.close("sampler");
         self.open("<film type=\"hdrfilm\">");
         if let Some(film) = t.get("film").and_then(Value::as_table) {
-            self.body("sensor.film", film, &["crop"])?;
+            self.body("sensor.film", film, &["crop", "rfilter"])?;
             if let Some(Value::Array(c)) = film.get("crop") {
                 let c: Vec<i64> = c.iter().filter_map(Value::as_integer).collect();
                 let [x0, y0, x1, y1] = c[..] else { return Err("sensor.film.crop: needs four integers".into()) };
@@ -226,7 +227,13 @@ impl Writer {
                 }
             }
         }
-        self.line("<rfilter type=\"box\"/>");
+        // No rfilter: Mitsuba's default (a Gaussian) is caustica's too, so none is written.
+        if let Some(f) = t.get("film").and_then(Value::as_table).and_then(|f| f.get("rfilter")).and_then(Value::as_table) {
+            let kind = f.get("type").and_then(Value::as_str).ok_or("sensor.film.rfilter: needs a type")?;
+            self.open(&format!("<rfilter type=\"{}\">", esc(kind)));
+            self.body("sensor.film.rfilter", f, &["type"])?;
+            self.close("rfilter");
+        }
         self.close("film");
         self.close("sensor");
         Ok(())
