@@ -477,7 +477,7 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
     let to_world_key = join_key(key, "to_world");
     let to_world = to_world_matrix(ctx, &to_world_key, s.to_world.as_ref())?;
     let (linear, det) = invertible_linear_part(ctx, &to_world_key, to_world)?;
-    let material = materials.index_for(ctx, &join_key(key, "bsdf"), s.bsdf.as_ref())?;
+    let material = materials.index_for(ctx, &join_key(key, "bsdf"), s.bsdf.as_ref(), s.emitter.is_some())?;
     let radiance = s
         .emitter
         .as_ref()

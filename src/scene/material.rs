@@ -14,7 +14,7 @@
 //! one-sided, as in Mitsuba: they reflect light arriving on the side the shading normal points to, and are
 //! black from behind unless wrapped in `twosided`. Named metals (`material = "Au"`, ...) are the RGB
 //! `eta`/`k` of Mitsuba's tables (`crate::bsdf::CONDUCTORS`, with their sources). Shapes without a `bsdf`
-//! get Mitsuba's default, diffuse with reflectance 0.5.
+//! get Mitsuba's default, diffuse with reflectance 0.5, or black diffuse when the shape emits (as Mitsuba).
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -59,6 +59,12 @@ pub(crate) const DEFAULT_BSDF: Bsdf = Bsdf::Diffuse {
     reflectance: Vec3::splat(0.5),
 };
 
+/// Mitsuba's default material for an emitting shape without a bsdf: black diffuse (`Shape::Shape`,
+/// src/render/shape.cpp: "reflectance" 0 when the shape has an emitter).
+pub(crate) const DEFAULT_EMITTER_BSDF: Bsdf = Bsdf::Diffuse {
+    reflectance: Vec3::ZERO,
+};
+
 /// Resolves bsdf references and hands out material indices: one per referenced named bsdf, one per inline
 /// table, and one shared index for the default material.
 pub(crate) struct Materials<'a> {
@@ -66,6 +72,7 @@ pub(crate) struct Materials<'a> {
     resolved: HashMap<String, Bsdf>,
     index_of_name: HashMap<String, u32>,
     default_index: Option<u32>,
+    default_emitter_index: Option<u32>,
     pub(crate) bsdfs: Vec<Bsdf>,
 }
 
@@ -77,6 +84,7 @@ impl<'a> Materials<'a> {
             resolved: HashMap::new(),
             index_of_name: HashMap::new(),
             default_index: None,
+            default_emitter_index: None,
             bsdfs: Vec::new(),
         };
         for name in named.keys() {
@@ -85,13 +93,24 @@ impl<'a> Materials<'a> {
         Ok(m)
     }
 
-    /// The material index for a shape's `bsdf` (at `key`), or the default material when absent.
-    pub(crate) fn index_for(&mut self, ctx: &ErrorContext, key: &str, r: Option<&BsdfRef>) -> Result<u32, SceneError> {
+    /// The material index for a shape's `bsdf` (at `key`), or, when absent, the default material of a
+    /// shape that is `emitting` or not.
+    pub(crate) fn index_for(&mut self, ctx: &ErrorContext, key: &str, r: Option<&BsdfRef>, emitting: bool) -> Result<u32, SceneError> {
         match r {
-            None => Ok(*self.default_index.get_or_insert_with(|| {
-                self.bsdfs.push(DEFAULT_BSDF);
-                (self.bsdfs.len() - 1) as u32
-            })),
+            None => {
+                let (slot, bsdf) = if emitting {
+                    (self.default_emitter_index, DEFAULT_EMITTER_BSDF)
+                } else {
+                    (self.default_index, DEFAULT_BSDF)
+                };
+                if let Some(i) = slot {
+                    return Ok(i);
+                }
+                self.bsdfs.push(bsdf);
+                let i = (self.bsdfs.len() - 1) as u32;
+                *(if emitting { &mut self.default_emitter_index } else { &mut self.default_index }) = Some(i);
+                Ok(i)
+            }
             Some(BsdfRef::Name(name)) => {
                 if let Some(&i) = self.index_of_name.get(name) {
                     return Ok(i);

@@ -38,7 +38,7 @@
 //! [[shape]]
 //! type = "rectangle"           # obj | ply | serialized | rectangle | cube | sphere
 //! to_world = [ { rotate = { axis = [1, 0, 0], angle = -90 } }, { translate = [0, -1, 0] } ]
-//! bsdf = "white"               # a name, or an inline table; absent: diffuse 0.5 (Mitsuba's default)
+//! bsdf = "white"               # a name, or an inline table; absent: diffuse 0.5, black if it emits (Mitsuba)
 //!
 //! [[shape]]
 //! type = "rectangle"
