@@ -21,6 +21,7 @@ use super::desc::{
 };
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
+use super::plugins::{check_keys, Role};
 use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix};
@@ -355,19 +356,16 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
 fn rfilter(ctx: &ErrorContext, d: &RFilterDesc) -> Result<PixelFilter, SceneError> {
     use crate::film::filter::defaults as fd;
     let key = "sensor.film.rfilter";
-    let (name, own): (&str, &[&str]) = match d.kind {
-        RFilterType::Box => ("box", &[]),
-        RFilterType::Tent => ("tent", &["radius"]),
-        RFilterType::Gaussian => ("gaussian", &["stddev"]),
-        RFilterType::Mitchell => ("mitchell", &["B", "C"]),
-        RFilterType::CatmullRom => ("catmullrom", &[]),
-        RFilterType::Lanczos => ("lanczos", &["lobes"]),
+    let name = match d.kind {
+        RFilterType::Box => "box",
+        RFilterType::Tent => "tent",
+        RFilterType::Gaussian => "gaussian",
+        RFilterType::Mitchell => "mitchell",
+        RFilterType::CatmullRom => "catmullrom",
+        RFilterType::Lanczos => "lanczos",
     };
     let present = [("radius", d.radius.is_some()), ("stddev", d.stddev.is_some()), ("B", d.b.is_some()), ("C", d.c.is_some()), ("lobes", d.lobes.is_some())];
-    if let Some((p, _)) = present.iter().find(|(p, there)| *there && !own.contains(p)) {
-        let has = if own.is_empty() { "it has none".to_string() } else { format!("its parameters: {}", own.join(", ")) };
-        return Err(ctx.key_error(&join_key(key, p), format!("`{p}` does not apply to rfilter type `{name}` ({has})")));
-    }
+    check_keys(ctx, key, Role::RFilter, name, &present)?;
     let filter = match d.kind {
         RFilterType::Box => PixelFilter::Box,
         RFilterType::Tent => PixelFilter::Tent { radius: d.radius.unwrap_or(fd::TENT_RADIUS) },
@@ -381,12 +379,6 @@ fn rfilter(ctx: &ErrorContext, d: &RFilterDesc) -> Result<PixelFilter, SceneErro
 
 /// Rejects keys that do not apply to the shape's type.
 fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), SceneError> {
-    let specific: &[&str] = match s.kind {
-        ShapeType::Obj | ShapeType::Ply => &["filename", "face_normals"],
-        ShapeType::Serialized => &["filename", "shape_index", "face_normals"],
-        ShapeType::Sphere => &["center", "radius", "rings", "segments", "face_normals"],
-        ShapeType::Rectangle | ShapeType::Cube => &[],
-    };
     let present = [
         ("filename", s.filename.is_some()),
         ("shape_index", s.shape_index.is_some()),
@@ -396,19 +388,7 @@ fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), 
         ("rings", s.rings.is_some()),
         ("segments", s.segments.is_some()),
     ];
-    if let Some((name, _)) = present.iter().find(|(name, p)| *p && !specific.contains(name)) {
-        let mut keys = vec!["to_world", "bsdf", "emitter", "flip_normals"];
-        keys.extend_from_slice(specific);
-        return Err(ctx.key_error(
-            &join_key(key, name),
-            format!(
-                "`{name}` does not apply to shape type `{}` (its keys: {})",
-                s.kind.name(),
-                keys.join(", ")
-            ),
-        ));
-    }
-    Ok(())
+    check_keys(ctx, key, Role::Shape, s.kind.name(), &present)
 }
 
 fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
@@ -501,13 +481,6 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
 }
 
 fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path) -> Result<EmitterPlan, SceneError> {
-    let specific: &[&str] = match e.kind {
-        EmitterType::Envmap => &["filename", "scale", "to_world"],
-        EmitterType::Constant => &["radiance"],
-        EmitterType::Point => &["intensity", "position", "to_world"],
-        EmitterType::Spot => &["intensity", "cutoff_angle", "beam_width", "to_world"],
-        EmitterType::Directional => &["irradiance", "direction", "to_world"],
-    };
     let present = [
         ("filename", e.filename.is_some()),
         ("scale", e.scale.is_some()),
@@ -520,16 +493,7 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path)
         ("irradiance", e.irradiance.is_some()),
         ("direction", e.direction.is_some()),
     ];
-    if let Some((name, _)) = present.iter().find(|(name, p)| *p && !specific.contains(name)) {
-        return Err(ctx.key_error(
-            &join_key(key, name),
-            format!(
-                "`{name}` does not apply to emitter type `{}` (its keys: {})",
-                e.kind.name(),
-                specific.join(", ")
-            ),
-        ));
-    }
+    check_keys(ctx, key, Role::Emitter, e.kind.name(), &present)?;
     Ok(match e.kind {
         EmitterType::Envmap => {
             let Some(filename) = &e.filename else {

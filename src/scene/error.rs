@@ -6,6 +6,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use super::spans::SpanIndex;
+use super::xml::unsupported::Unsupported;
 use super::xml::Places;
 
 /// Why a scene file was rejected.
@@ -47,6 +48,9 @@ pub enum SceneError {
         line: Option<usize>,
         missing: PathBuf,
     },
+    /// The scene uses plugins, properties or tags caustica cannot render: all of them, each at its place.
+    #[error("{}: the scene uses {} thing{} caustica cannot render:{}", file.display(), items.len(), if items.len() == 1 { "" } else { "s" }, UnsupportedList(items))]
+    Unsupported { file: PathBuf, items: Vec<Unsupported> },
     /// A file the scene refers to exists but cannot be loaded.
     #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), asset.display())]
     Asset {
@@ -56,6 +60,18 @@ pub enum SceneError {
         asset: PathBuf,
         message: String,
     },
+}
+
+/// The items of [`SceneError::Unsupported`], one per line.
+struct UnsupportedList<'a>(&'a [Unsupported]);
+
+impl fmt::Display for UnsupportedList<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for item in self.0 {
+            write!(f, "\n  {item}")?;
+        }
+        Ok(())
+    }
 }
 
 impl SceneError {
@@ -68,7 +84,8 @@ impl SceneError {
             | SceneError::XmlSyntax { file, .. }
             | SceneError::Key { file, .. }
             | SceneError::MissingFile { file, .. }
-            | SceneError::Asset { file, .. } => file,
+            | SceneError::Asset { file, .. }
+            | SceneError::Unsupported { file, .. } => file,
         }
     }
 
@@ -77,7 +94,7 @@ impl SceneError {
     pub fn key(&self) -> Option<&str> {
         match self {
             SceneError::Key { key, .. } | SceneError::MissingFile { key, .. } | SceneError::Asset { key, .. } => Some(key),
-            SceneError::Read { .. } | SceneError::Syntax { .. } | SceneError::XmlSyntax { .. } => None,
+            SceneError::Read { .. } | SceneError::Syntax { .. } | SceneError::XmlSyntax { .. } | SceneError::Unsupported { .. } => None,
         }
     }
 }

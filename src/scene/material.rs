@@ -20,6 +20,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::desc::{BsdfDesc, BsdfRef, BsdfType, Ior};
 use super::error::{ErrorContext, SceneError};
+use super::plugins::{check_keys, Role};
 use super::spans::join_key;
 use crate::bsdf::{Bsdf, Microfacet, MicrofacetType, CONDUCTORS};
 use crate::math::Vec3;
@@ -168,14 +169,6 @@ impl<'a> Materials<'a> {
     }
 
     fn resolve_desc(&mut self, ctx: &ErrorContext, key: &str, d: &BsdfDesc, stack: &mut Vec<String>) -> Result<Bsdf, SceneError> {
-        let allowed: &[&str] = match d.kind {
-            BsdfType::Diffuse => &["reflectance"],
-            BsdfType::Conductor => &["specular_reflectance", "material", "eta", "k"],
-            BsdfType::RoughConductor => &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"],
-            BsdfType::Dielectric => &["int_ior", "ext_ior"],
-            BsdfType::BlendBsdf => &["weight", "bsdf_0", "bsdf_1"],
-            BsdfType::TwoSided => &["bsdf"],
-        };
         let present = [
             ("reflectance", d.reflectance.is_some()),
             ("specular_reflectance", d.specular_reflectance.is_some()),
@@ -192,16 +185,7 @@ impl<'a> Materials<'a> {
             ("bsdf_1", d.bsdf_1.is_some()),
             ("bsdf", d.bsdf.is_some()),
         ];
-        if let Some((name, _)) = present.iter().find(|(name, p)| *p && !allowed.contains(name)) {
-            return Err(ctx.key_error(
-                &join_key(key, name),
-                format!(
-                    "`{name}` does not apply to bsdf type `{}` (its keys: {})",
-                    d.kind.name(),
-                    allowed.join(", ")
-                ),
-            ));
-        }
+        check_keys(ctx, key, Role::Bsdf, d.kind.name(), &present)?;
         let k = |name: &str| join_key(key, name);
         Ok(match d.kind {
             BsdfType::Diffuse => {

@@ -180,3 +180,56 @@ fn properties_that_change_no_image_are_noted_not_refused() {
     write(&scene, r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/></sensor></scene>"#);
     assert!(error(&scene).contains("principal_point_offset_x"));
 }
+
+#[test]
+fn everything_unsupported_is_reported_at_once() {
+    let d = dir("unsupported");
+    let scene = d.join("scene.xml");
+    write(
+        &scene,
+        &format!(
+            r#"<scene version="3.0.0">
+<integrator type="guided_path"/>
+{SENSOR}
+<texture type="checkerboard" id="checks"/>
+<bsdf type="roughplastic" id="floor"/>
+<shape type="disk"/>
+<shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
+<medium type="homogeneous" id="fog"/>
+</scene>"#
+        ),
+    );
+    let e = error(&scene);
+    assert!(e.contains("uses 6 things caustica cannot render"), "{e}");
+    for (line, phrase) in [
+        (2, "integrator type \"guided_path\""),
+        (6, "<texture> is not supported yet"),
+        (7, "bsdf type \"roughplastic\" is not supported yet"),
+        (8, "shape type \"disk\""),
+        (9, "property \"roughness\" of <bsdf type=\"diffuse\"> is not one caustica reads (its keys: reflectance)"),
+        (10, "out of caustica's scope"),
+    ] {
+        assert!(e.contains(&format!("scene.xml:{line}: ")) && e.contains(phrase), "line {line}, {phrase:?}: {e}");
+    }
+    // What Mitsuba would do with each is said.
+    assert!(e.contains("Mitsuba renders a diffuse base under a rough dielectric coating"), "{e}");
+    // The command line's estimator replaces the integrator: five remain.
+    let e = match Scene::load_with(&scene, &LoadOptions { replace_integrator: true, ..LoadOptions::default() }) {
+        Ok(_) => panic!("loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("uses 5 things") && !e.contains("guided_path"), "{e}");
+    // `info` and `render` refuse with the same list, exit code 2.
+    for args in [vec!["info"], vec!["render", "--spp", "1", "-q", "-o"]] {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"));
+        cmd.args(&args);
+        if args[0] == "render" {
+            cmd.arg(d.join("out.exr"));
+        }
+        let out = cmd.arg(&scene).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains("uses 6 things") && stderr.contains("scene.xml:10: "), "{args:?}: {stderr}");
+    }
+    assert!(!d.join("out.exr").exists());
+}

@@ -23,7 +23,7 @@ use super::super::spans::{join_index, join_key};
 
 /// Mitsuba's sampler types: caustica uses its own deterministic sampler for each (the expected image
 /// does not depend on the sampling pattern).
-const SAMPLER_TYPES: &[&str] = &["independent", "stratified", "multijitter", "orthogonal", "ldsampler"];
+pub(crate) const SAMPLER_TYPES: &[&str] = &["independent", "stratified", "multijitter", "orthogonal", "ldsampler"];
 
 /// Prefix of the integrator properties that set `[integrator.caustics]` (caustica's extension).
 pub(crate) const CAUSTICS_PREFIX: &str = "caustics_";

@@ -74,6 +74,7 @@ mod params;
 mod places;
 mod spectrum;
 mod tree;
+pub(crate) mod unsupported;
 mod upgrade;
 mod values;
 pub(crate) mod write;
@@ -101,5 +102,9 @@ pub(crate) fn read_str(
     let mut root = tree::parse_scene(text, name, &mut search, 0)?;
     params::substitute(&mut root, params, name)?;
     spectrum::resolve_files(&mut root, &search);
+    let unsupported = unsupported::scan(&root, options);
+    if !unsupported.is_empty() {
+        return Err(SceneError::Unsupported { file: name.to_path_buf(), items: unsupported });
+    }
     convert::convert(&root, &search, options)
 }

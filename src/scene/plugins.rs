@@ -1,0 +1,102 @@
+//! The plugin types caustica renders and the keys each takes: **the one list** behind the key checks of
+//! both scene formats (a key that does not apply to its plugin's type is an error naming the type's keys)
+//! and behind the XML reader's report of everything a scene uses that caustica cannot render
+//! (`xml::unsupported`). A new plugin type is one row here plus its variant where its values are built
+//! (`desc`, and `material` for BSDFs, `build` for shapes and emitters, `film::filter` for filters).
+//!
+//! Keys keep Mitsuba's property names, so the same names serve the TOML tables and the XML properties.
+
+use super::error::{ErrorContext, SceneError};
+use super::spans::join_key;
+
+/// What kind of plugin a type is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Role {
+    Bsdf,
+    Shape,
+    Emitter,
+    RFilter,
+}
+
+impl Role {
+    /// The role's name in messages, and its XML tag.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Role::Bsdf => "bsdf",
+            Role::Shape => "shape",
+            Role::Emitter => "emitter",
+            Role::RFilter => "rfilter",
+        }
+    }
+
+    /// Keys every type of the role takes beside `type` and its own.
+    fn common(self) -> &'static [&'static str] {
+        match self {
+            Role::Shape => &["to_world", "bsdf", "emitter", "flip_normals"],
+            Role::Bsdf | Role::Emitter | Role::RFilter => &[],
+        }
+    }
+}
+
+/// (role, type, the type's own keys). `area` is the emitter attached to a shape.
+const TYPES: &[(Role, &str, &[&str])] = &[
+    (Role::Bsdf, "diffuse", &["reflectance"]),
+    (Role::Bsdf, "conductor", &["specular_reflectance", "material", "eta", "k"]),
+    (Role::Bsdf, "roughconductor", &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"]),
+    (Role::Bsdf, "dielectric", &["int_ior", "ext_ior"]),
+    (Role::Bsdf, "blendbsdf", &["weight", "bsdf_0", "bsdf_1"]),
+    (Role::Bsdf, "twosided", &["bsdf"]),
+    (Role::Shape, "obj", &["filename", "face_normals"]),
+    (Role::Shape, "ply", &["filename", "face_normals"]),
+    (Role::Shape, "serialized", &["filename", "shape_index", "face_normals"]),
+    (Role::Shape, "sphere", &["center", "radius", "rings", "segments", "face_normals"]),
+    (Role::Shape, "rectangle", &[]),
+    (Role::Shape, "cube", &[]),
+    (Role::Emitter, "area", &["radiance"]),
+    (Role::Emitter, "envmap", &["filename", "scale", "to_world"]),
+    (Role::Emitter, "constant", &["radiance"]),
+    (Role::Emitter, "point", &["intensity", "position", "to_world"]),
+    (Role::Emitter, "spot", &["intensity", "cutoff_angle", "beam_width", "to_world"]),
+    (Role::Emitter, "directional", &["irradiance", "direction", "to_world"]),
+    (Role::RFilter, "box", &[]),
+    (Role::RFilter, "tent", &["radius"]),
+    (Role::RFilter, "gaussian", &["stddev"]),
+    (Role::RFilter, "mitchell", &["B", "C"]),
+    (Role::RFilter, "catmullrom", &[]),
+    (Role::RFilter, "lanczos", &["lobes"]),
+];
+
+/// Every key type `name` of `role` takes (the role's common keys, then its own); `None` for an unknown type.
+pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
+    let (_, _, own) = TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?;
+    Some(role.common().iter().chain(own.iter()).copied().collect())
+}
+
+/// The key rule: the first key of `present` (key, given) that is given but that type `name` of `role`
+/// does not take is an error at `key.<that key>`, naming the type's keys.
+pub(crate) fn check_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, present: &[(&str, bool)]) -> Result<(), SceneError> {
+    let allowed = keys(role, name).unwrap_or_default();
+    match present.iter().find(|(k, given)| *given && !allowed.contains(k)) {
+        None => Ok(()),
+        Some((k, _)) => {
+            let list = if allowed.is_empty() { "none".to_string() } else { allowed.join(", ") };
+            Err(ctx.key_error(&join_key(key, k), format!("`{k}` does not apply to {} type `{name}` (its keys: {list})", role.name())))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_type_is_listed_once_with_its_keys() {
+        for (i, (role, name, _)) in TYPES.iter().enumerate() {
+            assert!(!TYPES[..i].iter().any(|(r, n, _)| r == role && n == name), "{name} twice");
+        }
+        assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals"]);
+        assert_eq!(keys(Role::Bsdf, "roughplastic"), None);
+        assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
+        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::Bsdf).count(), 6);
+    }
+}

@@ -1,0 +1,158 @@
+//! Everything a Mitsuba scene uses that caustica cannot render, found at once: every unsupported tag,
+//! plugin type and property, each with its file and line and what Mitsuba would do with it. `read_str`
+//! runs this scan before converting, so `caustica info` and `render` refuse a scene with the whole list
+//! (exit code 2), not one item per attempt. Properties that change no image (`ignored`) are not listed.
+//! What is supported comes from the one list of plugin types and keys (`scene::plugins`) and the XML
+//! reader's own lists (sensors, films, samplers, integrators).
+
+use std::fmt;
+use std::path::PathBuf;
+
+use super::convert::{ConvertOptions, CAUSTICS_PREFIX, SAMPLER_TYPES};
+use super::ignored;
+use super::integrators::{self, Reading};
+use super::tree::Element;
+use super::values::PROPERTY_TAGS;
+use super::super::plugins::{self, Role};
+
+/// One thing caustica cannot render.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unsupported {
+    pub file: PathBuf,
+    pub line: usize,
+    /// The element, as errors name it (`<bsdf type="roughplastic">`).
+    pub element: String,
+    /// What is unsupported, and what Mitsuba would do with it.
+    pub message: String,
+}
+
+impl fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: {}: {}", self.file.display(), self.line, self.element, self.message)
+    }
+}
+
+const LATER_MATERIALS: &str = "not supported yet (textures and materials are the next part of caustica's Mitsuba support)";
+const LATER_SHAPES: &str = "not supported yet (analytic shapes, instancing, further emitters and sensors are planned)";
+const OUT_OF_SCOPE: &str = "out of caustica's scope";
+
+/// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
+const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
+    ("bsdf", "plastic", "a diffuse base under a smooth dielectric coating", LATER_MATERIALS),
+    ("bsdf", "roughplastic", "a diffuse base under a rough dielectric coating", LATER_MATERIALS),
+    ("bsdf", "roughdielectric", "rough glass: microfacet reflection and transmission", LATER_MATERIALS),
+    ("bsdf", "thindielectric", "a thin glass sheet: reflection and straight transmission", LATER_MATERIALS),
+    ("bsdf", "mask", "an opacity mask cutting holes in the nested BSDF", LATER_MATERIALS),
+    ("bsdf", "bumpmap", "the nested BSDF with normals perturbed by a height texture", LATER_MATERIALS),
+    ("bsdf", "normalmap", "the nested BSDF with normals from a normal-map texture", LATER_MATERIALS),
+    ("bsdf", "principled", "the Disney principled BSDF", LATER_MATERIALS),
+    ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
+    ("bsdf", "phong", "the modified Phong reflectance model", LATER_MATERIALS),
+    ("bsdf", "mixturebsdf", "a weighted mixture of BSDFs", LATER_MATERIALS),
+    ("bsdf", "null", "an invisible surface (rays pass through)", LATER_MATERIALS),
+    ("bsdf", "hair", "a hair fibre scattering model", OUT_OF_SCOPE),
+    ("bsdf", "measured", "a measured (tabulated) BSDF", OUT_OF_SCOPE),
+    ("bsdf", "measured_polarized", "a measured polarized BSDF", OUT_OF_SCOPE),
+    ("bsdf", "polarizer", "a linear polarizer", OUT_OF_SCOPE),
+    ("bsdf", "retarder", "a polarization retarder", OUT_OF_SCOPE),
+    ("bsdf", "circular", "a circular polarizer", OUT_OF_SCOPE),
+    ("shape", "disk", "an analytic disk", LATER_SHAPES),
+    ("shape", "cylinder", "an analytic cylinder", LATER_SHAPES),
+    ("shape", "shapegroup", "a group of shapes to instance", LATER_SHAPES),
+    ("shape", "instance", "an instance of a shapegroup", LATER_SHAPES),
+    ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),
+    ("shape", "linearcurve", "curves (hair, fur)", OUT_OF_SCOPE),
+    ("shape", "sdfgrid", "a signed distance field", OUT_OF_SCOPE),
+    ("emitter", "projector", "a projector light", LATER_SHAPES),
+    ("emitter", "sunsky", "a sun and sky model", LATER_SHAPES),
+    ("sensor", "thinlens", "a thin-lens camera with depth of field", LATER_SHAPES),
+    ("sensor", "orthographic", "an orthographic camera", LATER_SHAPES),
+    ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
+    ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
+    ("film", "specfilm", "a film of spectral channels", OUT_OF_SCOPE),
+];
+
+/// Tags caustica has no element for: (tag, what Mitsuba does with it, when caustica will).
+const MITSUBA_TAGS: &[(&str, &str, &str)] = &[
+    ("texture", "a texture on a parameter (bitmap, checkerboard, ...)", LATER_MATERIALS),
+    ("medium", "a participating medium (fog, smoke, subsurface)", OUT_OF_SCOPE),
+    ("phase", "a phase function of a participating medium", OUT_OF_SCOPE),
+    ("volume", "a volume grid of a participating medium", OUT_OF_SCOPE),
+];
+
+/// Everything below `root` (includes spliced, parameters substituted) that caustica cannot render.
+pub(crate) fn scan(root: &Element, options: ConvertOptions) -> Vec<Unsupported> {
+    let mut found = Vec::new();
+    for el in &root.children {
+        visit(el, options, &mut found);
+    }
+    found
+}
+
+fn push(found: &mut Vec<Unsupported>, el: &Element, message: String) {
+    found.push(Unsupported { file: el.file.as_ref().clone(), line: el.line, element: el.label(), message });
+}
+
+fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
+    let tag = el.tag.as_str();
+    if let Some((_, what, when)) = MITSUBA_TAGS.iter().find(|(t, ..)| *t == tag) {
+        push(found, el, format!("<{tag}> is {when}; Mitsuba renders {what}"));
+        return;
+    }
+    let kind = el.attr("type").unwrap_or_default();
+    let keys: Option<Vec<&str>> = match tag {
+        "bsdf" => plugins::keys(Role::Bsdf, kind),
+        "shape" => plugins::keys(Role::Shape, kind),
+        "emitter" => plugins::keys(Role::Emitter, kind),
+        "rfilter" => plugins::keys(Role::RFilter, kind),
+        "sensor" => (kind == "perspective").then(|| vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"]),
+        "film" => (kind == "hdrfilm")
+            .then(|| vec!["width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height"]),
+        "sampler" => SAMPLER_TYPES.contains(&kind).then(|| vec!["sample_count", "seed"]),
+        "integrator" => return integrator(el, options, found),
+        _ => return,
+    };
+    let Some(keys) = keys else {
+        let message = match MITSUBA_TYPES.iter().find(|(t, k, ..)| *t == tag && *k == kind) {
+            Some((.., what, when)) => format!("{tag} type \"{kind}\" is {when}; Mitsuba renders {what}"),
+            None => format!("{tag} type \"{kind}\" is not a Mitsuba plugin caustica renders"),
+        };
+        push(found, el, message);
+        return;
+    };
+    for child in &el.children {
+        let is_property = PROPERTY_TAGS.contains(&child.tag.as_str()) || child.tag == "transform";
+        if is_property {
+            let name = child.attr("name").unwrap_or_default();
+            if !keys.contains(&name) && ignored::why(el, name).is_none() {
+                push(found, child, format!("property \"{name}\" of {} is not one caustica reads (its keys: {})", el.label(), keys.join(", ")));
+            }
+        } else {
+            visit(child, options, found);
+        }
+    }
+}
+
+fn integrator(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
+    let kind = el.attr("type").unwrap_or_default();
+    match integrators::reading(kind) {
+        Reading::Path { .. } => {
+            for child in el.children.iter().filter(|c| PROPERTY_TAGS.contains(&c.tag.as_str())) {
+                let name = child.attr("name").unwrap_or_default();
+                let read = matches!(name, "max_depth" | "rr_depth" | "hide_emitters") || name.starts_with(CAUSTICS_PREFIX);
+                if !read && ignored::why(el, name).is_none() {
+                    push(found, child, format!("property \"{name}\" of {} is not one caustica reads", el.label()));
+                }
+            }
+        }
+        Reading::Inner => {
+            for child in el.children.iter().filter(|c| c.tag == "integrator") {
+                integrator(child, options, found);
+            }
+        }
+        Reading::Refused(why) if !options.replace_integrator => {
+            push(found, el, format!("integrator type \"{kind}\" is not supported: {why}; `--estimator pt|pm|mis` replaces it by caustica's path tracer"));
+        }
+        Reading::Refused(_) => {}
+    }
+}
