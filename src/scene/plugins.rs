@@ -78,11 +78,15 @@ pub(crate) fn check_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, 
     let allowed = keys(role, name).unwrap_or_default();
     match present.iter().find(|(k, given)| *given && !allowed.contains(k)) {
         None => Ok(()),
-        Some((k, _)) => {
-            let list = if allowed.is_empty() { "none".to_string() } else { allowed.join(", ") };
-            Err(ctx.key_error(&join_key(key, k), format!("`{k}` does not apply to {} type `{name}` (its keys: {list})", role.name())))
-        }
+        Some((k, _)) => Err(ctx.key_error(&join_key(key, k), not_applicable(k, role.name(), name, &allowed))),
     }
+}
+
+/// How every scene reader says that key `key` does not apply to type `kind` of `role` (whose keys are
+/// `allowed`).
+pub(crate) fn not_applicable(key: &str, role: &str, kind: &str, allowed: &[&str]) -> String {
+    let list = if allowed.is_empty() { "none".to_string() } else { allowed.join(", ") };
+    format!("`{key}` does not apply to {role} type `{kind}` (its keys: {list})")
 }
 
 #[cfg(test)]

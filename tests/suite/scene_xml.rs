@@ -279,7 +279,7 @@ fn errors_name_file_line_and_plugin_or_property() {
     assert_names(&e, &["bad.xml:4:", "<bsdf type=\"plastic\">", "plastic"]);
     // Unknown property.
     let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.1\"/>\n  </bsdf>\n</shape>");
-    assert_names(&e, &["bad.xml:5:", "<bsdf type=\"diffuse\"> property \"roughness\"", "unknown field"]);
+    assert_names(&e, &["bad.xml:5:", "<float name=\"roughness\">", "`roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"]);
     // A value out of range, found by the builder.
     let e = xml_error("<shape type=\"sphere\">\n  <float name=\"radius\" value=\"-1\"/>\n</shape>");
     assert_names(&e, &["bad.xml:4:", "<shape type=\"sphere\"> property \"radius\""]);

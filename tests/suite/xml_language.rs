@@ -206,7 +206,7 @@ fn everything_unsupported_is_reported_at_once() {
         (6, "<texture> is not supported yet"),
         (7, "bsdf type \"roughplastic\" is not supported yet"),
         (8, "shape type \"disk\""),
-        (9, "property \"roughness\" of <bsdf type=\"diffuse\"> is not one caustica reads (its keys: reflectance)"),
+        (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
     ] {
         assert!(e.contains(&format!("scene.xml:{line}: ")) && e.contains(phrase), "line {line}, {phrase:?}: {e}");

@@ -125,7 +125,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         if is_property {
             let name = child.attr("name").unwrap_or_default();
             if !keys.contains(&name) && ignored::why(el, name).is_none() {
-                push(found, child, format!("property \"{name}\" of {} is not one caustica reads (its keys: {})", el.label(), keys.join(", ")));
+                push(found, child, plugins::not_applicable(name, tag, kind, &keys));
             }
         } else {
             visit(child, options, found);
@@ -141,7 +141,8 @@ fn integrator(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported
                 let name = child.attr("name").unwrap_or_default();
                 let read = matches!(name, "max_depth" | "rr_depth" | "hide_emitters") || name.starts_with(CAUSTICS_PREFIX);
                 if !read && ignored::why(el, name).is_none() {
-                    push(found, child, format!("property \"{name}\" of {} is not one caustica reads", el.label()));
+                    let keys = ["max_depth", "rr_depth", "hide_emitters", "caustics_*"];
+                    push(found, child, plugins::not_applicable(name, "integrator", kind, &keys));
                 }
             }
         }
