@@ -202,3 +202,37 @@ impl Rng {
         }
     }
 }
+
+/// How a render is compared with Mitsuba's image of the same scene (`mitsuba_features`, `real_scenes`).
+pub struct MitsubaBounds {
+    /// Mitsuba's samples per pixel: its pixel variance is modelled as `kappa·s²/ref_spp`, `s²` ours per sample.
+    pub ref_spp: f64,
+    pub kappa: f64,
+    /// A systematic difference allowed on top of the noise, relative to Mitsuba's value.
+    pub slack: f64,
+    /// The whole-image mean must also lie within this fraction of Mitsuba's, when given.
+    pub whole_rel: Option<f64>,
+}
+
+/// Asserts that render `r` matches Mitsuba's `reference` (`name` in messages): the whole-image luminance
+/// within 4σ + slack (and `whole_rel`), every 8×8 block within 4.5σ + slack (a block black in both is 0σ).
+pub fn assert_matches_mitsuba(name: &str, r: &Rendered, reference: &Image, b: &MitsubaBounds) {
+    let mut reference = LumImage::from_image(reference);
+    reference.var = r.sample_var.iter().map(|s2| b.kappa * s2 / b.ref_spp).collect();
+    let (ours, theirs) = (r.lum.whole(), reference.whole());
+    let dev = (ours.mean - theirs.mean).abs();
+    let sigma = (ours.var + theirs.var).sqrt();
+    eprintln!("{name}: caustica {:.5} ± {:.5}, Mitsuba {:.5}: ratio {:.4}, {:.2}σ", ours.mean, ours.sigma(), theirs.mean, ours.mean / theirs.mean, dev / sigma);
+    if let Some(rel) = b.whole_rel {
+        assert!(dev <= rel * theirs.mean, "{name}: whole image {} vs Mitsuba {}: beyond {rel}", ours.mean, theirs.mean);
+    }
+    assert!(dev <= 4.0 * sigma + b.slack * theirs.mean, "{name}: whole image {} vs Mitsuba {} ({:.2}σ)", ours.mean, theirs.mean, dev / sigma);
+    let mut worst: f64 = 0.0;
+    for ((x, y, o), (_, _, t)) in r.lum.blocks(8).into_iter().zip(reference.blocks(8)) {
+        let beyond = (o.mean - t.mean).abs() - b.slack * t.mean;
+        let excess = if beyond <= 0.0 { 0.0 } else { beyond / (o.var + t.var).sqrt() };
+        worst = worst.max(excess);
+        assert!(excess <= 4.5, "{name}: block at ({x}, {y}): {} vs Mitsuba {} ({excess:.2}σ beyond the slack)", o.mean, t.mean);
+    }
+    eprintln!("{name}: worst 8×8 block {worst:.2}σ beyond the {} slack", b.slack);
+}

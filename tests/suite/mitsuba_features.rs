@@ -32,19 +32,6 @@ fn pt_matches_mitsuba_on_delta_lights_beckmann_named_conductors_and_twosided() {
     s.seed = 7;
     s.estimator = Estimator::Pt;
     let r = render_with_variance(&scene, backend(), &s);
-    let mut reference = LumImage::from_image(&reference);
-    reference.var = r.sample_var.iter().map(|s2| KAPPA * s2 / REF_SPP).collect();
-    let (a, b) = (r.lum.whole(), reference.whole());
-    let dev = (a.mean - b.mean).abs();
-    let sigma = (a.var + b.var).sqrt();
-    eprintln!("whole image: caustica {:.5} ± {:.5}, Mitsuba {:.5}: ratio {:.4}, {:.2}σ", a.mean, a.sigma(), b.mean, a.mean / b.mean, dev / sigma);
-    assert!(dev <= 4.0 * sigma + SLACK * b.mean, "whole image: {} vs Mitsuba {} ({:.2}σ)", a.mean, b.mean, dev / sigma);
-    let mut worst: f64 = 0.0;
-    for ((x, y, ours), (_, _, theirs)) in r.lum.blocks(8).into_iter().zip(reference.blocks(8)) {
-        let sigma = (ours.var + theirs.var).sqrt();
-        let excess = ((ours.mean - theirs.mean).abs() - SLACK * theirs.mean) / sigma;
-        worst = worst.max(excess);
-        assert!(excess <= 4.5, "block at ({x}, {y}): {} vs Mitsuba {} ({excess:.2}σ beyond the slack)", ours.mean, theirs.mean);
-    }
-    eprintln!("worst 8×8 block: {worst:.2}σ beyond the {SLACK} slack");
+    let bounds = MitsubaBounds { ref_spp: REF_SPP, kappa: KAPPA, slack: SLACK, whole_rel: None };
+    assert_matches_mitsuba("mitsuba-features", &r, &reference, &bounds);
 }

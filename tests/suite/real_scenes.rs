@@ -43,24 +43,8 @@ fn matches_mitsuba_with(name: &str, file: &str, options: &LoadOptions) {
     s.seed = 7;
     s.estimator = Estimator::Pt;
     let r = render_with_variance(&scene, backend(), &s);
-    let mut reference = LumImage::from_image(&reference);
-    reference.var = r.sample_var.iter().map(|s2| KAPPA * s2 / REF_SPP).collect();
-    let (a, b) = (r.lum.whole(), reference.whole());
-    let dev = (a.mean - b.mean).abs();
-    let sigma = (a.var + b.var).sqrt();
-    eprintln!("{name}: caustica {:.5} ± {:.5}, Mitsuba {:.5}: ratio {:.4}, {:.2}σ", a.mean, a.sigma(), b.mean, a.mean / b.mean, dev / sigma);
-    assert!(dev <= WHOLE_REL * b.mean, "{name}: whole image {} vs Mitsuba {}: beyond {WHOLE_REL}", a.mean, b.mean);
-    assert!(dev <= 4.0 * sigma + SLACK * b.mean, "{name}: whole image {} vs Mitsuba {} ({:.2}σ)", a.mean, b.mean, dev / sigma);
-    let mut worst: f64 = 0.0;
-    for ((x, y, ours), (_, _, theirs)) in r.lum.blocks(8).into_iter().zip(reference.blocks(8)) {
-        let sigma = (ours.var + theirs.var).sqrt();
-        // Both blocks black (no noise): within the slack is 0σ, not 0/0.
-        let beyond = (ours.mean - theirs.mean).abs() - SLACK * theirs.mean;
-        let excess = if beyond <= 0.0 { 0.0 } else { beyond / sigma };
-        worst = worst.max(excess);
-        assert!(excess <= 4.5, "{name}: block at ({x}, {y}): {} vs Mitsuba {} ({excess:.2}σ beyond the slack)", ours.mean, theirs.mean);
-    }
-    eprintln!("{name}: worst 8×8 block {worst:.2}σ beyond the {SLACK} slack");
+    let bounds = MitsubaBounds { ref_spp: REF_SPP, kappa: KAPPA, slack: SLACK, whole_rel: Some(WHOLE_REL) };
+    assert_matches_mitsuba(name, &r, &reference, &bounds);
 }
 
 #[test]
