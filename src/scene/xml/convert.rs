@@ -145,6 +145,17 @@ impl<'a> Converter<'a> {
         self.push_note(NoteKind::Ignored, el, format!("property of {} ignored: {why}", plugin.label()));
     }
 
+    /// Whether property `name` (element `child`) of `plugin` changes no image (`ignored`): then its value
+    /// is still checked, and it is noted and left out.
+    fn skip_ignored(&mut self, plugin: &Element, child: &Element, name: &str) -> Result<bool, SceneError> {
+        let Some(why) = ignored::why(plugin, name) else {
+            return Ok(false);
+        };
+        values::property_value(child, plugin)?;
+        self.note_ignored(plugin, child, why);
+        Ok(true)
+    }
+
     fn push_note(&mut self, kind: NoteKind, el: &Element, message: String) {
         self.notes.push(SceneNote { kind, file: el.file.as_ref().clone(), line: el.line, message: format!("{}: {message}", el.label()) });
     }
@@ -185,9 +196,7 @@ impl<'a> Converter<'a> {
     fn property_or_transform(&mut self, plugin: &Element, child: &Element, key: &str, table: &mut Table) -> Result<bool, SceneError> {
         if PROPERTY_TAGS.contains(&child.tag.as_str()) {
             let name = child.required("name")?;
-            if let Some(why) = ignored::why(plugin, name) {
-                values::property_value(child, plugin)?;
-                self.note_ignored(plugin, child, why);
+            if self.skip_ignored(plugin, child, name)? {
                 return Ok(true);
             }
             let mut value = values::property_value(child, plugin)?;
@@ -279,9 +288,7 @@ impl<'a> Converter<'a> {
                 return Err(unsupported(child, el));
             }
             let name = child.required("name")?;
-            if let Some(why) = ignored::why(el, name) {
-                values::property_value(child, el)?;
-                self.note_ignored(el, child, why);
+            if self.skip_ignored(el, child, name)? {
                 continue;
             }
             let value = values::property_value(child, el)?;
@@ -332,7 +339,8 @@ impl<'a> Converter<'a> {
                 tag => tag,
             };
             match tag {
-                "film" if !film_seen => {
+                "film" if film_seen => return Err(child.error(format!("{} has a second film", el.label()))),
+                "film" => {
                     film_seen = true;
                     let film = self.film(self.deref(child, "film")?)?;
                     table.insert("film".into(), Value::Table(film));
@@ -413,9 +421,7 @@ impl<'a> Converter<'a> {
                 return Err(unsupported(child, el));
             }
             let name = child.required("name")?;
-            if let Some(why) = ignored::why(el, name) {
-                values::property_value(child, el)?;
-                self.note_ignored(el, child, why);
+            if self.skip_ignored(el, child, name)? {
                 continue;
             }
             let target = match name {
