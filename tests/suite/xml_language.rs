@@ -166,7 +166,7 @@ fn properties_that_change_no_image_are_noted_not_refused() {
         <float name="focus_distance" value="3"/>
         <film type="hdrfilm"><string name="pixel_format" value="rgba"/><boolean name="banner" value="false"/>
         <integer name="width" value="8"/><integer name="height" value="6"/></film>
-        <sampler type="stratified"><boolean name="jitter" value="true"/></sampler></sensor>
+        <sampler type="stratified"><boolean name="jitter" value="False"/></sampler></sensor>
         <emitter type="constant"><float name="sampling_weight" value="2"/></emitter></scene>"#,
     );
     let s = load(&scene);
@@ -174,6 +174,11 @@ fn properties_that_change_no_image_are_noted_not_refused() {
     for name in ["focus_distance", "pixel_format", "banner", "jitter", "sampling_weight"] {
         assert!(ignored.iter().any(|m| m.contains(name)), "{name} not noted: {ignored:?}");
     }
+    // Booleans in any case, as Mitsuba reads them ("False" above); anything else is refused.
+    write(&scene, r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><sampler type="stratified"><boolean name="jitter" value="no"/></sampler></sensor></scene>"#);
+    assert!(error(&scene).contains("\"no\" is not true or false"));
+    write(&scene, &std::fs::read_to_string(&scene).unwrap().replace("\"no\"", "\"TRUE\""));
+    load(&scene);
     // Each note names its file and line.
     assert!(s.notes.iter().all(|n| n.file == scene && n.line > 0));
     // A property that would change the image is still refused.

@@ -71,10 +71,13 @@ pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, Sc
         "integer" => Value::Integer(
             text.parse::<i64>().map_err(|_| el.error(format!("attribute `value`: {text:?} is not an integer")))?,
         ),
-        "boolean" => Value::Boolean(match text {
-            "true" => true,
-            "false" => false,
-            _ => return Err(el.error(format!("attribute `value`: {text:?} is not true or false"))),
+        // Any case, as Mitsuba (`string::iequals`, src/core/parser.cpp): Blender's exporter writes "False".
+        "boolean" => Value::Boolean(if text.eq_ignore_ascii_case("true") {
+            true
+        } else if text.eq_ignore_ascii_case("false") {
+            false
+        } else {
+            return Err(el.error(format!("attribute `value`: {text:?} is not true or false")));
         }),
         "string" => Value::String(text.to_string()),
         "rgb" => {
