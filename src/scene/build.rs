@@ -356,14 +356,7 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
 fn rfilter(ctx: &ErrorContext, d: &RFilterDesc) -> Result<PixelFilter, SceneError> {
     use crate::film::filter::defaults as fd;
     let key = "sensor.film.rfilter";
-    let name = match d.kind {
-        RFilterType::Box => "box",
-        RFilterType::Tent => "tent",
-        RFilterType::Gaussian => "gaussian",
-        RFilterType::Mitchell => "mitchell",
-        RFilterType::CatmullRom => "catmullrom",
-        RFilterType::Lanczos => "lanczos",
-    };
+    let name = d.kind.name();
     let present = [("radius", d.radius.is_some()), ("stddev", d.stddev.is_some()), ("B", d.b.is_some()), ("C", d.c.is_some()), ("lobes", d.lobes.is_some())];
     check_keys(ctx, key, Role::RFilter, name, &present)?;
     let filter = match d.kind {

@@ -147,6 +147,19 @@ pub(crate) enum RFilterType {
     Lanczos,
 }
 
+impl RFilterType {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            RFilterType::Box => "box",
+            RFilterType::Tent => "tent",
+            RFilterType::Gaussian => "gaussian",
+            RFilterType::Mitchell => "mitchell",
+            RFilterType::CatmullRom => "catmullrom",
+            RFilterType::Lanczos => "lanczos",
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
 #[serde(rename_all = "lowercase")]
 pub(crate) enum BsdfType {

@@ -85,6 +85,11 @@ impl SearchPath {
         self.dirs.last().map_or(Path::new(""), PathBuf::as_path)
     }
 
+    /// The directories, for errors.
+    fn describe(&self) -> String {
+        self.dirs.iter().map(|d| format!("{:?}", d.display().to_string())).collect::<Vec<_>>().join(", ")
+    }
+
     /// Looks in `dir` before every directory already listed.
     fn prepend(&mut self, dir: PathBuf) {
         self.dirs.insert(0, dir);
@@ -155,13 +160,6 @@ pub(crate) fn parse_scene(text: &str, path: &Path, search: &mut SearchPath, dept
         }
     }
     Ok(root)
-}
-
-impl SearchPath {
-    /// The directories, for errors.
-    fn describe(&self) -> String {
-        self.dirs.iter().map(|d| format!("{:?}", d.display().to_string())).collect::<Vec<_>>().join(", ")
-    }
 }
 
 /// `text` with the dashes inside comments blanked, so that a comment containing `--` (which XML forbids,
