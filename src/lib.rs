@@ -21,6 +21,7 @@ pub mod integrator;
 pub mod light;
 pub mod math;
 pub mod mesh;
+pub mod props;
 pub mod photon;
 pub mod render;
 pub mod report;

@@ -15,7 +15,7 @@
 //! [`BsdfAtWo::f_pdf`] per `wi`. Same bits either way.
 
 use super::roughconductor::GgxAtWo;
-use super::{blend, flip_z, roughconductor, valid_wo, Bsdf, Microfacet, TransportMode};
+use super::{blend, flip_z, roughconductor, valid_wo, Blend, Bsdf, Diffuse, Microfacet, RoughConductor, TransportMode, TwoSided};
 use crate::math::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
@@ -37,8 +37,8 @@ impl<'a> Lobe<'a> {
     /// The lobe of `bsdf` at `wo` (`wo.z > 0`), if it is a diffuse or rough-conductor BSDF.
     fn new(bsdf: &'a Bsdf, wo: Vec3) -> Option<Self> {
         match bsdf {
-            Bsdf::Diffuse { reflectance } => Some(Lobe::Diffuse { f: *reflectance * FRAC_1_PI }),
-            Bsdf::RoughConductor { distribution, specular_reflectance, eta_k } => Some(Lobe::RoughConductor {
+            Bsdf::Diffuse(Diffuse { reflectance }) => Some(Lobe::Diffuse { f: *reflectance * FRAC_1_PI }),
+            Bsdf::RoughConductor(RoughConductor { distribution, specular_reflectance, eta_k }) => Some(Lobe::RoughConductor {
                 distribution,
                 specular_reflectance: *specular_reflectance,
                 eta_k: *eta_k,
@@ -142,8 +142,8 @@ impl<'a> BsdfAtWo<'a> {
             return BsdfAtWo { shape: Shape::Zero, ..generic };
         }
         let (inner, wo, flip) = match bsdf {
-            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => (&**inner, flip_z(wo_local), true),
-            Bsdf::TwoSided(inner) => (&**inner, wo_local, false),
+            Bsdf::TwoSided(TwoSided(inner)) if wo_local.z < 0.0 => (&**inner, flip_z(wo_local), true),
+            Bsdf::TwoSided(TwoSided(inner)) => (&**inner, wo_local, false),
             other => (other, wo_local, false),
         };
         if wo.z <= 0.0 {
@@ -151,7 +151,7 @@ impl<'a> BsdfAtWo<'a> {
             return generic;
         }
         let shape = match inner {
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => match (Lobe::new(bsdf_0, wo), Lobe::new(bsdf_1, wo)) {
+            Bsdf::Blend(Blend { weight, bsdf_0, bsdf_1 }) => match (Lobe::new(bsdf_0, wo), Lobe::new(bsdf_1, wo)) {
                 (Some(lobe_0), Some(lobe_1)) => Shape::Blend { w: blend::clamp_weight(*weight), lobe_0, lobe_1 },
                 _ => return generic,
             },
@@ -274,46 +274,47 @@ fn blend_lanes(w: f32, (f0, p0): (Vec3, f32), (f1, p1): (Vec3, f32)) -> (Vec3, f
 
 #[cfg(test)]
 mod tests {
+    use crate::bsdf::{Conductor, Dielectric};
     use super::*;
     use crate::bsdf::MicrofacetType;
     use crate::sampler::Sampler;
 
     fn rough(kind: MicrofacetType, alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
-        Bsdf::RoughConductor {
+        Bsdf::RoughConductor(RoughConductor {
             distribution: Microfacet { kind, alpha, sample_visible: kind == MicrofacetType::Ggx },
             specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
             eta_k,
-        }
+        })
     }
 
     /// Every shape (prepared and fallback) gives bit-for-bit `Bsdf::f_pdf` and `Bsdf::f`, on both sides,
     /// for random and degenerate directions.
     #[test]
     fn matches_the_bsdf_bit_for_bit() {
-        let diffuse = Bsdf::Diffuse { reflectance: Vec3::new(0.5, 0.25, 0.125) };
+        let diffuse = Bsdf::Diffuse(Diffuse { reflectance: Vec3::new(0.5, 0.25, 0.125) });
         let gold = Some((Vec3::new(0.2, 0.4, 1.4), Vec3::new(3.6, 2.4, 1.8)));
-        let ggx_drawn_by_d_cos = Bsdf::RoughConductor {
+        let ggx_drawn_by_d_cos = Bsdf::RoughConductor(RoughConductor {
             distribution: Microfacet { kind: MicrofacetType::Ggx, alpha: 0.2, sample_visible: false },
             specular_reflectance: Vec3::ONE,
             eta_k: None,
-        };
+        });
         let lobes = [diffuse.clone(), rough(MicrofacetType::Ggx, 0.005, None), rough(MicrofacetType::Beckmann, 0.3, gold), ggx_drawn_by_d_cos];
         let mut bsdfs = Vec::new();
         for a in &lobes {
             bsdfs.push(a.clone());
             for b in &lobes {
                 for weight in [0.0, 0.3, 1.0] {
-                    bsdfs.push(Bsdf::Blend { weight, bsdf_0: Box::new(a.clone()), bsdf_1: Box::new(b.clone()) });
+                    bsdfs.push(Bsdf::Blend(Blend { weight, bsdf_0: Box::new(a.clone()), bsdf_1: Box::new(b.clone()) }));
                 }
             }
         }
-        bsdfs.push(Bsdf::Dielectric { eta: 1.5 });
-        bsdfs.push(Bsdf::Blend {
+        bsdfs.push(Bsdf::Dielectric(Dielectric { eta: 1.5 }));
+        bsdfs.push(Bsdf::Blend(Blend {
             weight: 0.5,
             bsdf_0: Box::new(diffuse.clone()),
-            bsdf_1: Box::new(Bsdf::Conductor { specular_reflectance: Vec3::ONE, eta_k: None }),
-        });
-        let all: Vec<Bsdf> = bsdfs.iter().cloned().chain(bsdfs.iter().map(|b| Bsdf::TwoSided(Box::new(b.clone())))).collect();
+            bsdf_1: Box::new(Bsdf::Conductor(Conductor { specular_reflectance: Vec3::ONE, eta_k: None })),
+        }));
+        let all: Vec<Bsdf> = bsdfs.iter().cloned().chain(bsdfs.iter().map(|b| Bsdf::TwoSided(TwoSided(Box::new(b.clone()))))).collect();
         let mut s = Sampler::for_key(3, 0, 0);
         let mut dir = || {
             let v = Vec3::new(2.0 * s.next_1d() - 1.0, 2.0 * s.next_1d() - 1.0, 2.0 * s.next_1d() - 1.0);

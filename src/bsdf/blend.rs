@@ -11,8 +11,71 @@
 //!   `pdf_w = p_c·q` and weight `(w_c/p_c)·(T/q)` = the component's weight, since `p_c = w_c`.
 //!   Nested blends compose by the same rules.
 
-use super::{Bsdf, BsdfSample, TransportMode, ONE_MINUS_EPSILON};
+//!
+//! ```toml
+//! bsdf = { type = "blendbsdf", weight = 0.3, bsdf_0 = "white", bsdf_1 = { type = "roughconductor" } }
+//! ```
+//!
+//! `weight` in [0, 1] (default 0.5); `bsdf_0`, `bsdf_1`: names of `[bsdf.<name>]` tables or inline tables.
+
+use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode, ONE_MINUS_EPSILON};
 use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
+
+/// Mitsuba's `blendbsdf`: (1 − weight)·bsdf_0 + weight·bsdf_1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Blend {
+    pub weight: f32,
+    pub bsdf_0: Box<Bsdf>,
+    pub bsdf_1: Box<Bsdf>,
+}
+
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "blendbsdf",
+    keys: &["weight", "bsdf_0", "bsdf_1"],
+    nested: &["bsdf_0", "bsdf_1"],
+    build,
+};
+
+fn build(mut p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
+    let weight = p.in_range_or("weight", 0.5, 0.0, 1.0, "the blend weight")?;
+    let (Some(bsdf_0), Some(bsdf_1)) = (p.take_nested("bsdf_0"), p.take_nested("bsdf_1")) else {
+        let missing = if p.has("bsdf_0") { "bsdf_1" } else { "bsdf_0" };
+        return Err(PropError::new("", format!("blendbsdf needs `bsdf_0` and `bsdf_1`; `{missing}` is missing")));
+    };
+    Ok(Bsdf::Blend(Blend { weight, bsdf_0: Box::new(bsdf_0), bsdf_1: Box::new(bsdf_1) }))
+}
+
+impl Model for Blend {
+    #[inline]
+    fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        f(self.weight, &self.bsdf_0, &self.bsdf_1, wo, wi, mode)
+    }
+    #[inline]
+    fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+        f_pdf(self.weight, &self.bsdf_0, &self.bsdf_1, wo, wi, mode)
+    }
+    #[inline]
+    fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32 {
+        pdf_w(self.weight, &self.bsdf_0, &self.bsdf_1, wo, wi)
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, u_lobe: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        sample(self, wo, u_lobe, u_dir, mode)
+    }
+    fn chooses_lobe(&self) -> bool {
+        true
+    }
+    fn has_delta(&self) -> bool {
+        (self.weight < 1.0 && self.bsdf_0.has_delta()) || (self.weight > 0.0 && self.bsdf_1.has_delta())
+    }
+    fn has_non_delta(&self) -> bool {
+        (self.weight < 1.0 && self.bsdf_0.has_non_delta()) || (self.weight > 0.0 && self.bsdf_1.has_non_delta())
+    }
+    fn transmits(&self) -> bool {
+        self.bsdf_0.transmits() || self.bsdf_1.transmits()
+    }
+}
 
 /// The blend weight as used: clamped to [0, 1] (the scene loader rejects other values; NaN → 0).
 #[inline]
@@ -69,19 +132,16 @@ pub(super) fn pdf_w(weight: f32, bsdf_0: &Bsdf, bsdf_1: &Bsdf, wo: Vec3, wi: Vec
     sum
 }
 
-#[allow(clippy::too_many_arguments)]
 #[must_use]
-pub(super) fn sample(
-    blend: &Bsdf,
-    weight: f32,
-    bsdf_0: &Bsdf,
-    bsdf_1: &Bsdf,
+fn sample(
+    blend: &Blend,
     wo: Vec3,
     u_lobe: f32,
     u_dir: Vec2,
     mode: TransportMode,
 ) -> Option<BsdfSample> {
-    let w = clamp_weight(weight);
+    let Blend { weight, bsdf_0, bsdf_1 } = blend;
+    let w = clamp_weight(*weight);
     let p0 = 1.0 - w;
     // Select with probability (1 − w | w) and rescale u_lobe to [0, 1) for the component.
     let (component, p_sel, u_rest) = if u_lobe < p0 {
@@ -97,6 +157,6 @@ pub(super) fn sample(
             ..s
         })
     } else {
-        blend.non_delta_sample(wo, s.wi_local, mode)
+        non_delta_sample(blend, wo, s.wi_local, mode)
     }
 }

@@ -1,9 +1,104 @@
 //! Smooth conductor: a one-sided (as Mitsuba's `conductor`; `twosided` mirrors it) perfect mirror weighted by the conductor Fresnel term for a complex
 //! index of refraction `η + iκ` (relative to the exterior), or by 1 when `eta_k` is `None`
 //! (Mitsuba's material "none").
+//!
+//! ```toml
+//! bsdf = { type = "conductor", material = "Au" }   # a named metal of Mitsuba's (CONDUCTORS), or "none" (default)
+//! bsdf = { type = "conductor", eta = [0.2, 0.9, 1.1], k = [3.9, 2.4, 2.2], specular_reflectance = 1 }
+//! ```
+//!
+//! `specular_reflectance` (default 1) scales the reflection; `material` or `eta` + `k` (both), not both.
 
-use super::{reflect_z, BsdfSample};
-use crate::math::Vec3;
+use super::conductor_table::CONDUCTORS;
+use super::{reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
+
+/// Mitsuba's `conductor`. `eta_k: None` = perfect mirror (Fresnel = 1), Mitsuba's material "none".
+#[derive(Clone, Debug, PartialEq)]
+pub struct Conductor {
+    pub specular_reflectance: Vec3,
+    pub eta_k: Option<(Vec3, Vec3)>,
+}
+
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "conductor",
+    keys: &["specular_reflectance", "material", "eta", "k"],
+    nested: &[],
+    build,
+};
+
+fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
+    let (specular_reflectance, eta_k) = reflection(&p)?;
+    Ok(Bsdf::Conductor(Conductor { specular_reflectance, eta_k }))
+}
+
+/// The reflection keys of `conductor` and `roughconductor`: `specular_reflectance` (default 1) and the complex index of refraction: `material` (a name of
+/// [`CONDUCTORS`], or "none": a perfect mirror, the default) or `eta` and `k` (both), not both.
+pub(super) fn reflection(p: &Props<'_, Bsdf>) -> Result<(Vec3, Option<(Vec3, Vec3)>), PropError> {
+    let specular_reflectance = p.reflectance_or("specular_reflectance", Vec3::ONE)?;
+    let eta_k = match (p.colour("eta")?, p.colour("k")?) {
+        (None, None) => named(p.string("material")?)?,
+        (Some(_), _) | (_, Some(_)) if p.has("material") => {
+            return Err(PropError::new("material", "give either `material` or `eta` and `k`, not both"))
+        }
+        (Some(eta), Some(k)) => {
+            if eta.min_element() <= 0.0 {
+                return Err(PropError::new("eta", format!("every component of eta must be > 0, got {eta}")));
+            }
+            if k.min_element() < 0.0 {
+                return Err(PropError::new("k", format!("every component of k must be ≥ 0, got {k}")));
+            }
+            Some((eta, k))
+        }
+        (Some(_), None) => return Err(PropError::new("eta", "give both `eta` and `k`, or neither (perfect mirror)")),
+        (None, Some(_)) => return Err(PropError::new("k", "give both `eta` and `k`, or neither (perfect mirror)")),
+    };
+    Ok((specular_reflectance, eta_k))
+}
+
+/// `eta`/`k` of Mitsuba's named conductor `name`; `None` (perfect mirror) for "none" or absent.
+fn named(name: Option<&str>) -> Result<Option<(Vec3, Vec3)>, PropError> {
+    match name {
+        None | Some("none") => Ok(None),
+        Some(name) => CONDUCTORS
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, eta, k)| Some((Vec3::from_array(*eta), Vec3::from_array(*k))))
+            .ok_or_else(|| {
+                let names: Vec<&str> = CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+                PropError::new("material", format!("unknown conductor {name:?}; known: none, {}", names.join(", ")))
+            }),
+    }
+}
+
+impl Model for Conductor {
+    fn f(&self, _: Vec3, _: Vec3, _: TransportMode) -> Vec3 {
+        Vec3::ZERO
+    }
+    fn f_pdf(&self, _: Vec3, _: Vec3, _: TransportMode) -> (Vec3, f32) {
+        (Vec3::ZERO, 0.0)
+    }
+    fn pdf_w(&self, _: Vec3, _: Vec3) -> f32 {
+        0.0
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, _: f32, _: Vec2, _: TransportMode) -> Option<BsdfSample> {
+        sample(self.specular_reflectance, self.eta_k, wo)
+    }
+    fn chooses_lobe(&self) -> bool {
+        false
+    }
+    fn has_delta(&self) -> bool {
+        true
+    }
+    fn has_non_delta(&self) -> bool {
+        false
+    }
+    fn transmits(&self) -> bool {
+        false
+    }
+}
 
 /// Unpolarised Fresnel reflectance of a conductor with relative complex IOR `eta + i·k`, for the cosine
 /// `cos_theta_i` of the incident angle (its absolute value is used).
@@ -66,6 +161,7 @@ pub(super) fn sample(specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo
 
 #[cfg(test)]
 mod tests {
+    use crate::bsdf::TwoSided;
     use super::*;
     use crate::bsdf::{fresnel_dielectric, Bsdf, TransportMode};
     use crate::math::Vec2;
@@ -136,12 +232,12 @@ mod tests {
     #[test]
     fn mirror_sample_on_both_sides_when_twosided() {
         for eta_k in [None, Some((AU_ETA, AU_K))] {
-            let one_sided = Bsdf::Conductor {
+            let one_sided = Bsdf::Conductor(Conductor {
                 specular_reflectance: Vec3::new(1.0, 0.5, 0.25),
                 eta_k,
-            };
+            });
             assert!(one_sided.sample(Vec3::new(0.0, -0.6, -0.8), 0.3, Vec2::new(0.2, 0.7), TransportMode::Radiance).is_none());
-            let bsdf = Bsdf::TwoSided(Box::new(one_sided));
+            let bsdf = Bsdf::TwoSided(TwoSided(Box::new(one_sided)));
             assert!(bsdf.has_delta() && !bsdf.has_non_delta());
             for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, -0.6, -0.8), Vec3::Z] {
                 let s = bsdf

@@ -7,9 +7,65 @@
 //! multiplied by `(η_o/η_i)²` = `1/η²` where `η = η_i/η_o` is the relative index of the side `wi` lies
 //! on over the side of `wo` (entering glass from outside in a camera path: `×1/η²`, leaving it: `×η²`).
 //! [`TransportMode::Importance`] (photons carry flux) does not scale: the weight is exactly 1.
+//!
+//! ```toml
+//! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = "air" }   # numbers or Mitsuba's IOR names (`ior`)
+//! ```
+//!
+//! Defaults as Mitsuba: `int_ior` 1.5046 ("bk7"), `ext_ior` 1.000277 ("air").
 
-use super::{reflect_z, BsdfSample, TransportMode};
-use crate::math::Vec3;
+use super::ior::{ior_or, AIR, BK7};
+use super::{reflect_z, Bsdf, BsdfSample, Model, Plugin};
+use super::TransportMode;
+use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
+
+/// Mitsuba's `dielectric`; `eta = int_ior / ext_ior`. The interior is on the -z side of the shading frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dielectric {
+    pub eta: f32,
+}
+
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "dielectric",
+    keys: &["int_ior", "ext_ior"],
+    nested: &[],
+    build,
+};
+
+fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
+    let int_ior = ior_or(&p, "int_ior", BK7)?;
+    let ext_ior = ior_or(&p, "ext_ior", AIR)?;
+    Ok(Bsdf::Dielectric(Dielectric { eta: int_ior / ext_ior }))
+}
+
+impl Model for Dielectric {
+    fn f(&self, _: Vec3, _: Vec3, _: TransportMode) -> Vec3 {
+        Vec3::ZERO
+    }
+    fn f_pdf(&self, _: Vec3, _: Vec3, _: TransportMode) -> (Vec3, f32) {
+        (Vec3::ZERO, 0.0)
+    }
+    fn pdf_w(&self, _: Vec3, _: Vec3) -> f32 {
+        0.0
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, u_lobe: f32, _: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        sample(self.eta, wo, u_lobe, mode)
+    }
+    fn chooses_lobe(&self) -> bool {
+        true
+    }
+    fn has_delta(&self) -> bool {
+        true
+    }
+    fn has_non_delta(&self) -> bool {
+        false
+    }
+    fn transmits(&self) -> bool {
+        true
+    }
+}
 
 /// Unpolarised Fresnel reflectance of a dielectric interface with relative index `eta = η_int/η_ext`
 /// (Mitsuba 3 `fresnel_dielectric`; Walter et al. 2007 eq. 22 in the `r_s`, `r_p` form).
@@ -129,7 +185,7 @@ mod tests {
     #[test]
     fn refraction_obeys_snell_and_mode_scaling() {
         let eta = 1.5f32;
-        let bsdf = Bsdf::Dielectric { eta };
+        let bsdf = Bsdf::Dielectric(Dielectric { eta });
         assert!(bsdf.has_delta() && !bsdf.has_non_delta());
         for (theta, outside) in [
             (0.0f32, true),
@@ -169,7 +225,7 @@ mod tests {
 
     #[test]
     fn total_internal_reflection() {
-        let bsdf = Bsdf::Dielectric { eta: 1.5 };
+        let bsdf = Bsdf::Dielectric(Dielectric { eta: 1.5 });
         // Inside, beyond the critical angle asin(1/1.5) ≈ 41.8°.
         let mut wo = dir(50.0, 0.2);
         wo.z = -wo.z;
@@ -181,7 +237,7 @@ mod tests {
 
     #[test]
     fn reflection_probability_is_fresnel() {
-        let bsdf = Bsdf::Dielectric { eta: 1.5 };
+        let bsdf = Bsdf::Dielectric(Dielectric { eta: 1.5 });
         for (theta, sign) in [(0.0f32, 1.0f32), (60.0, 1.0), (80.0, 1.0), (30.0, -1.0), (41.0, -1.0)] {
             let mut wo = dir(theta, 0.0);
             wo.z *= sign;
@@ -207,7 +263,7 @@ mod tests {
 
     #[test]
     fn index_matched_passes_straight_through() {
-        let bsdf = Bsdf::Dielectric { eta: 1.0 };
+        let bsdf = Bsdf::Dielectric(Dielectric { eta: 1.0 });
         let wo = dir(35.0, 1.0);
         let s = bsdf.sample(wo, 0.0, Vec2::ZERO, TransportMode::Radiance).expect("transmission");
         assert!((s.wi_local + wo).length() < 1e-6 && s.pdf_w == 1.0 && s.weight == Vec3::ONE);

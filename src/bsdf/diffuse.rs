@@ -1,11 +1,64 @@
 //! Lambertian reflection, one-sided as Mitsuba's `diffuse`: `f = R/π` when `wo` and `wi` are both above the
 //! surface (+z; `twosided` mirrors the rest), sampled with the cosine-weighted hemisphere (pdf `cos θi/π`),
 //! so the sample weight is `R`.
+//!
+//! ```toml
+//! bsdf = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }   # one number (gray) or RGB in [0, 1]; default 0.5
+//! ```
 
-use super::BsdfSample;
+use super::{Bsdf, BsdfSample, Model, Plugin, TransportMode};
 use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
 use crate::sampling::warp::square_to_cosine_hemisphere;
 use std::f32::consts::FRAC_1_PI;
+
+/// Mitsuba's `diffuse`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diffuse {
+    pub reflectance: Vec3,
+}
+
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "diffuse",
+    keys: &["reflectance"],
+    nested: &[],
+    build,
+};
+
+fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
+    Ok(Bsdf::Diffuse(Diffuse { reflectance: p.reflectance_or("reflectance", Vec3::splat(0.5))? }))
+}
+
+impl Model for Diffuse {
+    #[inline]
+    fn f(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> Vec3 {
+        f(self.reflectance, wo, wi)
+    }
+    #[inline]
+    fn f_pdf(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> (Vec3, f32) {
+        (f(self.reflectance, wo, wi), pdf_w(wo, wi))
+    }
+    #[inline]
+    fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32 {
+        pdf_w(wo, wi)
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, _: f32, u_dir: Vec2, _: TransportMode) -> Option<BsdfSample> {
+        sample(self.reflectance, wo, u_dir)
+    }
+    fn chooses_lobe(&self) -> bool {
+        false
+    }
+    fn has_delta(&self) -> bool {
+        false
+    }
+    fn has_non_delta(&self) -> bool {
+        self.reflectance.max_element() > 0.0
+    }
+    fn transmits(&self) -> bool {
+        false
+    }
+}
 
 /// `R/π` above the surface, 0 elsewhere.
 #[must_use]

@@ -30,45 +30,136 @@
 mod at_wo;
 mod blend;
 mod conductor;
-mod dielectric;
 mod conductor_table;
+mod dielectric;
 mod diffuse;
+mod ior;
 mod microfacet;
 mod roughconductor;
+mod twosided;
 #[cfg(test)]
 mod tests;
 
 pub use at_wo::BsdfAtWo;
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
-pub(crate) use conductor_table::CONDUCTORS;
 pub use microfacet::{Microfacet, MicrofacetType};
 pub use dielectric::fresnel_dielectric;
+pub use blend::Blend;
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
+pub use diffuse::Diffuse;
+pub use roughconductor::RoughConductor;
+pub use twosided::TwoSided;
 
 use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
 
-/// A BSDF (conventions: the module documentation above). Parameters are validated by the scene loader; the evaluation routines stay
-/// NaN-free for any finite parameters.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Bsdf {
-    /// Lambertian reflection, `f = reflectance/π`.
-    Diffuse { reflectance: Vec3 },
-    /// Smooth conductor. `eta_k: None` = perfect mirror (Fresnel = 1), Mitsuba's material "none".
-    Conductor {
-        specular_reflectance: Vec3,
-        eta_k: Option<(Vec3, Vec3)>,
-    },
-    /// Microfacet conductor (Beckmann or GGX, isotropic, [`Microfacet`]).
-    RoughConductor {
-        distribution: Microfacet,
-        specular_reflectance: Vec3,
-        eta_k: Option<(Vec3, Vec3)>,
-    },
-    /// Smooth dielectric; `eta = int_ior / ext_ior`. The interior is on the -z side of the shading frame.
-    Dielectric { eta: f32 },
-    /// (1 − weight)·bsdf_0 + weight·bsdf_1.
-    Blend { weight: f32, bsdf_0: Box<Bsdf>, bsdf_1: Box<Bsdf> },
-    /// Mitsuba's `twosided`: the inner (reflecting) BSDF on both sides of the surface.
-    TwoSided(Box<Bsdf>),
+/// What every BSDF type implements, for inputs the dispatch of [`Bsdf`] has checked (`wo` finite and not
+/// in the tangent plane; for the evaluations also `wi`): the conventions of the module documentation.
+pub(crate) trait Model {
+    /// `f` without the cosine, non-delta lobes only.
+    fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3;
+    /// `(f, pdf_w)`, bit-identical to `(f, pdf_w)` computed apart.
+    fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32);
+    /// Solid-angle density of sampling `wi` through the non-delta lobes.
+    fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// One sampled direction (see [`Bsdf::sample`]).
+    fn sample(&self, wo: Vec3, u_lobe: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample>;
+    /// Whether `sample` reads `u_lobe`.
+    fn chooses_lobe(&self) -> bool;
+    /// Any delta lobe that can be sampled.
+    fn has_delta(&self) -> bool;
+    /// Any non-delta lobe that can be sampled and reflects something (see [`Bsdf::has_non_delta`]).
+    fn has_non_delta(&self) -> bool;
+    /// Whether some lobe transmits.
+    fn transmits(&self) -> bool;
+}
+
+/// A BSDF type as the scene files name it: Mitsuba's plugin name, the keys it takes (those whose values are
+/// nested BSDFs listed again in `nested`, which the scene reader resolves), and its constructor, which
+/// reads each key with its default and its check ([`Props`]). One per BSDF file, listed once in
+/// [`bsdf_types!`]'s invocation below.
+pub(crate) struct Plugin {
+    pub name: &'static str,
+    pub keys: &'static [&'static str],
+    pub nested: &'static [&'static str],
+    pub build: fn(Props<'_, Bsdf>) -> Result<Bsdf, PropError>,
+}
+
+/// The closed enum of BSDFs, its dispatch to each type's [`Model`] (written once, here) and the list of
+/// their [`Plugin`]s, from one list: `Variant(module::Type)`. A new BSDF type is a file (its type, its
+/// `Model`, its `PLUGIN`) and its line in that list.
+macro_rules! bsdf_types {
+    ($($variant:ident($module:ident::$ty:ident),)*) => {
+        /// A BSDF (conventions: the module documentation above). Parameters are validated by the
+        /// constructors of the types (`PLUGIN`); the evaluation routines stay NaN-free for any finite
+        /// parameters.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum Bsdf {
+            $($variant($module::$ty),)*
+        }
+
+        /// Every BSDF type, in the order of the enum.
+        pub(crate) const PLUGINS: &[&Plugin] = &[$(&$module::PLUGIN,)*];
+
+        impl Bsdf {
+            /// The Mitsuba plugin name of the BSDF's type.
+            #[must_use]
+            pub fn type_name(&self) -> &'static str {
+                match self {
+                    $(Bsdf::$variant(_) => $module::PLUGIN.name,)*
+                }
+            }
+
+        }
+
+        /// Static dispatch of every [`Model`] method to the variant's type (each arm a direct call, inlined).
+        impl Model for Bsdf {
+            #[inline]
+            fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+                match self { $(Bsdf::$variant(m) => m.f(wo, wi, mode),)* }
+            }
+            #[inline]
+            fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+                match self { $(Bsdf::$variant(m) => m.f_pdf(wo, wi, mode),)* }
+            }
+            #[inline]
+            fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32 {
+                match self { $(Bsdf::$variant(m) => m.pdf_w(wo, wi),)* }
+            }
+            #[inline]
+            fn sample(&self, wo: Vec3, u_lobe: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+                match self { $(Bsdf::$variant(m) => m.sample(wo, u_lobe, u_dir, mode),)* }
+            }
+            fn chooses_lobe(&self) -> bool {
+                match self { $(Bsdf::$variant(m) => m.chooses_lobe(),)* }
+            }
+            fn has_delta(&self) -> bool {
+                match self { $(Bsdf::$variant(m) => m.has_delta(),)* }
+            }
+            fn has_non_delta(&self) -> bool {
+                match self { $(Bsdf::$variant(m) => m.has_non_delta(),)* }
+            }
+            fn transmits(&self) -> bool {
+                match self { $(Bsdf::$variant(m) => m.transmits(),)* }
+            }
+        }
+    };
+}
+
+bsdf_types! {
+    Diffuse(diffuse::Diffuse),
+    Conductor(conductor::Conductor),
+    RoughConductor(roughconductor::RoughConductor),
+    Dielectric(dielectric::Dielectric),
+    Blend(blend::Blend),
+    TwoSided(twosided::TwoSided),
+}
+
+/// The plugin of the BSDF type Mitsuba names `name`.
+#[must_use]
+pub(crate) fn plugin(name: &str) -> Option<&'static Plugin> {
+    PLUGINS.iter().copied().find(|p| p.name == name)
 }
 
 /// The configuration mirrored through the tangent plane.
@@ -121,18 +212,7 @@ impl Bsdf {
         if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
             return Vec3::ZERO;
         }
-        match self {
-            Bsdf::Diffuse { reflectance } => diffuse::f(*reflectance, wo_local, wi_local),
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => Vec3::ZERO,
-            Bsdf::RoughConductor {
-                distribution,
-                specular_reflectance,
-                eta_k,
-            } => roughconductor::f(distribution, *specular_reflectance, *eta_k, wo_local, wi_local),
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
-            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.f(flip_z(wo_local), flip_z(wi_local), mode),
-            Bsdf::TwoSided(inner) => inner.f(wo_local, wi_local, mode),
-        }
+        Model::f(self, wo_local, wi_local, mode)
     }
 
     /// `(f, pdf_w)` in one evaluation, bit-identical to `(self.f(..), self.pdf_w(..))` but sharing the
@@ -140,21 +220,7 @@ impl Bsdf {
     /// density estimate and NEE.
     #[must_use]
     pub fn f_pdf(&self, wo_local: Vec3, wi_local: Vec3, mode: TransportMode) -> (Vec3, f32) {
-        if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
-            return (Vec3::ZERO, 0.0);
-        }
-        match self {
-            Bsdf::Diffuse { reflectance } => (diffuse::f(*reflectance, wo_local, wi_local), diffuse::pdf_w(wo_local, wi_local)),
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => (Vec3::ZERO, 0.0),
-            Bsdf::RoughConductor {
-                distribution,
-                specular_reflectance,
-                eta_k,
-            } => roughconductor::f_pdf(distribution, *specular_reflectance, *eta_k, wo_local, wi_local),
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::f_pdf(*weight, bsdf_0, bsdf_1, wo_local, wi_local, mode),
-            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.f_pdf(flip_z(wo_local), flip_z(wi_local), mode),
-            Bsdf::TwoSided(inner) => inner.f_pdf(wo_local, wi_local, mode),
-        }
+        checked_f_pdf(self, wo_local, wi_local, mode)
     }
 
     /// Solid-angle density of sampling `wi_local` through the non-delta lobes (the mixture as sampled).
@@ -163,14 +229,7 @@ impl Bsdf {
         if !valid_wo(wo_local) || !wi_local.is_finite() || wi_local.z == 0.0 {
             return 0.0;
         }
-        match self {
-            Bsdf::Diffuse { .. } => diffuse::pdf_w(wo_local, wi_local),
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
-            Bsdf::RoughConductor { distribution, .. } => roughconductor::pdf_w(distribution, wo_local, wi_local),
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::pdf_w(*weight, bsdf_0, bsdf_1, wo_local, wi_local),
-            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner.pdf_w(flip_z(wo_local), flip_z(wi_local)),
-            Bsdf::TwoSided(inner) => inner.pdf_w(wo_local, wi_local),
-        }
+        Model::pdf_w(self, wo_local, wi_local)
     }
 
     /// Samples an incident direction. `u_lobe` chooses among lobes/components, `u_dir` the direction
@@ -180,22 +239,7 @@ impl Bsdf {
         if !valid_wo(wo_local) {
             return None;
         }
-        let s = match self {
-            Bsdf::Diffuse { reflectance } => diffuse::sample(*reflectance, wo_local, u_dir),
-            Bsdf::Conductor {
-                specular_reflectance,
-                eta_k,
-            } => conductor::sample(*specular_reflectance, *eta_k, wo_local),
-            Bsdf::RoughConductor { distribution, .. } => {
-                self.non_delta_sample(wo_local, roughconductor::sample_wi(distribution, wo_local, u_dir)?, mode)
-            }
-            Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_local, u_lobe, mode),
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => blend::sample(self, *weight, bsdf_0, bsdf_1, wo_local, u_lobe, u_dir, mode),
-            Bsdf::TwoSided(inner) if wo_local.z < 0.0 => inner
-                .sample(flip_z(wo_local), u_lobe, u_dir, mode)
-                .map(|s| BsdfSample { wi_local: flip_z(s.wi_local), ..s }),
-            Bsdf::TwoSided(inner) => inner.sample(wo_local, u_lobe, u_dir, mode),
-        }?;
+        let s = Model::sample(self, wo_local, u_lobe, u_dir, mode)?;
         debug_assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0, "bad BSDF weight {s:?}");
         debug_assert!(s.pdf_w > 0.0 && s.pdf_w.is_finite(), "bad BSDF pdf {s:?}");
         Some(s)
@@ -206,22 +250,13 @@ impl Bsdf {
     /// sampler a dimension (the path tracer does).
     #[must_use]
     pub fn chooses_lobe(&self) -> bool {
-        match self {
-            Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::RoughConductor { .. } => false,
-            Bsdf::Dielectric { .. } | Bsdf::Blend { .. } => true,
-            Bsdf::TwoSided(inner) => inner.chooses_lobe(),
-        }
+        Model::chooses_lobe(self)
     }
 
     /// Any delta lobe that can be sampled (Conductor, Dielectric, or a blend with one at non-zero weight).
     #[must_use]
     pub fn has_delta(&self) -> bool {
-        match self {
-            Bsdf::Diffuse { .. } | Bsdf::RoughConductor { .. } => false,
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => true,
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => (*weight < 1.0 && bsdf_0.has_delta()) || (*weight > 0.0 && bsdf_1.has_delta()),
-            Bsdf::TwoSided(inner) => inner.has_delta(),
-        }
+        Model::has_delta(self)
     }
 
     /// Any non-delta lobe that can be sampled and reflects something. A black lobe (`reflectance = 0`,
@@ -232,42 +267,38 @@ impl Bsdf {
     /// that large (`caustic::min_delta_area`).
     #[must_use]
     pub fn has_non_delta(&self) -> bool {
-        match self {
-            Bsdf::Diffuse { reflectance } => reflectance.max_element() > 0.0,
-            Bsdf::RoughConductor { specular_reflectance, .. } => specular_reflectance.max_element() > 0.0,
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => false,
-            Bsdf::Blend { weight, bsdf_0, bsdf_1 } => {
-                (*weight < 1.0 && bsdf_0.has_non_delta()) || (*weight > 0.0 && bsdf_1.has_non_delta())
-            }
-            Bsdf::TwoSided(inner) => inner.has_non_delta(),
-        }
+        Model::has_non_delta(self)
     }
 
     /// Whether some lobe transmits (crosses the surface): a dielectric, alone or in a blend.
     #[must_use]
     pub fn transmits(&self) -> bool {
-        match self {
-            Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::RoughConductor { .. } => false,
-            Bsdf::Dielectric { .. } => true,
-            Bsdf::Blend { bsdf_0, bsdf_1, .. } => bsdf_0.transmits() || bsdf_1.transmits(),
-            Bsdf::TwoSided(inner) => inner.transmits(),
-        }
+        Model::transmits(self)
     }
+}
 
-    /// Completes a non-delta sample whose direction `wi` was drawn by this BSDF's sampler: the pdf is
-    /// `self.pdf_w` and the weight `self.f·|cos θi| / pdf_w`, both from one `f_pdf` (bit-identical to `f()` and
-    /// `pdf_w()`, one dispatch instead of two).
-    fn non_delta_sample(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
-        let (f, pdf_w) = self.f_pdf(wo, wi, mode);
-        if !(pdf_w > 0.0 && pdf_w.is_finite()) {
-            return None;
-        }
-        let weight = f * (wi.z.abs() / pdf_w);
-        weight.is_finite().then_some(BsdfSample {
-            wi_local: wi,
-            weight,
-            pdf_w,
-            delta: false,
-        })
+/// [`Model::f_pdf`] behind the checks of [`Bsdf::f_pdf`]: `(0, 0)` for an unusable `wo` or `wi`.
+#[inline]
+fn checked_f_pdf(m: &(impl Model + ?Sized), wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32) {
+    if !valid_wo(wo) || !wi.is_finite() || wi.z == 0.0 {
+        return (Vec3::ZERO, 0.0);
     }
+    m.f_pdf(wo, wi, mode)
+}
+
+/// Completes a non-delta sample whose direction `wi` was drawn by the sampler of `m`: the pdf is
+/// `m`'s `pdf_w` and the weight `f·|cos θi| / pdf_w`, both from one `f_pdf` (bit-identical to `f` and
+/// `pdf_w` apart, one evaluation instead of two).
+fn non_delta_sample(m: &impl Model, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<BsdfSample> {
+    let (f, pdf_w) = checked_f_pdf(m, wo, wi, mode);
+    if !(pdf_w > 0.0 && pdf_w.is_finite()) {
+        return None;
+    }
+    let weight = f * (wi.z.abs() / pdf_w);
+    weight.is_finite().then_some(BsdfSample {
+        wi_local: wi,
+        weight,
+        pdf_w,
+        delta: false,
+    })
 }

@@ -15,10 +15,87 @@
 //! To stay finite at grazing angles nothing divides by a cosine: with `[G1/cos](v)` from the distribution,
 //! `f = R·F·D·[G1/cos](wo)·[G1/cos](wi)/4` and `pdf_w = D·[G1/cos](wo)/4`.
 
-use super::conductor::fresnel_conductor_rgb;
+//!
+//! ```toml
+//! bsdf = { type = "roughconductor", alpha = 0.2, distribution = "ggx", material = "Cu" }
+//! ```
+//!
+//! `alpha` (default 0.1, > 0), `distribution` ("beckmann", Mitsuba's default, or "ggx"), `sample_visible`
+//! (default true), and the keys of `conductor` (`specular_reflectance`, `material` or `eta` + `k`).
+
+use super::conductor::{self, fresnel_conductor_rgb};
 use super::microfacet::{Microfacet, MicrofacetType};
-use std::f32::consts::PI;
+use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode};
 use crate::math::{Vec2, Vec3};
+use crate::props::{PropError, Props};
+use std::f32::consts::PI;
+
+/// Mitsuba's `roughconductor` (Beckmann or GGX, isotropic, [`Microfacet`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RoughConductor {
+    pub distribution: Microfacet,
+    pub specular_reflectance: Vec3,
+    pub eta_k: Option<(Vec3, Vec3)>,
+}
+
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "roughconductor",
+    keys: &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"],
+    nested: &[],
+    build,
+};
+
+fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
+    let (specular_reflectance, eta_k) = conductor::reflection(&p)?;
+    let kind = match p.string("distribution")? {
+        None | Some("beckmann") => MicrofacetType::Beckmann,
+        Some("ggx") => MicrofacetType::Ggx,
+        Some(other) => {
+            return Err(PropError::new(
+                "distribution",
+                format!("unknown distribution {other:?} (\"beckmann\", the default, or \"ggx\")"),
+            ))
+        }
+    };
+    let alpha = p.positive_or("alpha", 0.1, "the roughness alpha")?;
+    let sample_visible = p.bool_or("sample_visible", true)?;
+    Ok(Bsdf::RoughConductor(RoughConductor {
+        distribution: Microfacet { kind, alpha, sample_visible },
+        specular_reflectance,
+        eta_k,
+    }))
+}
+
+impl Model for RoughConductor {
+    #[inline]
+    fn f(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> Vec3 {
+        f(&self.distribution, self.specular_reflectance, self.eta_k, wo, wi)
+    }
+    #[inline]
+    fn f_pdf(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> (Vec3, f32) {
+        f_pdf(&self.distribution, self.specular_reflectance, self.eta_k, wo, wi)
+    }
+    #[inline]
+    fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32 {
+        pdf_w(&self.distribution, wo, wi)
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, _: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        non_delta_sample(self, wo, sample_wi(&self.distribution, wo, u_dir)?, mode)
+    }
+    fn chooses_lobe(&self) -> bool {
+        false
+    }
+    fn has_delta(&self) -> bool {
+        false
+    }
+    fn has_non_delta(&self) -> bool {
+        self.specular_reflectance.max_element() > 0.0
+    }
+    fn transmits(&self) -> bool {
+        false
+    }
+}
 
 /// Both directions strictly above the surface (one-sided reflection).
 #[inline]

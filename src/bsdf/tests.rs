@@ -3,6 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, RoughConductor, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -25,14 +26,14 @@ fn wo_at(theta_deg: f32) -> Vec3 {
 }
 
 fn two(b: Bsdf) -> Bsdf {
-    Bsdf::TwoSided(Box::new(b))
+    Bsdf::TwoSided(TwoSided(Box::new(b)))
 }
 
 /// Two-sided Lambertian.
 fn diffuse(r: f32) -> Bsdf {
-    two(Bsdf::Diffuse {
+    two(Bsdf::Diffuse(Diffuse {
         reflectance: Vec3::splat(r),
-    })
+    }))
 }
 
 /// Two-sided GGX rough conductor (visible normals).
@@ -42,27 +43,27 @@ fn rough(alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
 
 /// Two-sided rough conductor.
 fn rough_with(kind: MicrofacetType, alpha: f32, sample_visible: bool, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
-    two(Bsdf::RoughConductor {
+    two(Bsdf::RoughConductor(RoughConductor {
         distribution: Microfacet { kind, alpha, sample_visible },
         specular_reflectance: Vec3::ONE,
         eta_k,
-    })
+    }))
 }
 
 fn blend(weight: f32, b0: Bsdf, b1: Bsdf) -> Bsdf {
-    Bsdf::Blend {
+    Bsdf::Blend(Blend {
         weight,
         bsdf_0: Box::new(b0),
         bsdf_1: Box::new(b1),
-    }
+    })
 }
 
 /// Two-sided perfect mirror.
 fn mirror() -> Bsdf {
-    two(Bsdf::Conductor {
+    two(Bsdf::Conductor(Conductor {
         specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
         eta_k: None,
-    })
+    }))
 }
 
 /// χ² of the non-delta part of `bsdf`'s sampler at `wo`; delta samples count as "no direction".
@@ -200,7 +201,7 @@ fn chi2_blends_with_delta_components() {
         ));
     }
     // Nested: diffuse + (roughconductor + glass).
-    let nested = blend(0.5, diffuse(0.5), blend(0.4, rough(0.3, None), Bsdf::Dielectric { eta: 1.5 }));
+    let nested = blend(0.5, diffuse(0.5), blend(0.4, rough(0.3, None), Bsdf::Dielectric(Dielectric { eta: 1.5 })));
     for t in [10.0, 70.0, 160.0] {
         cases.push((format!("nested blend θo {t}"), nested.clone(), wo_at(t), PdfIntegral::AtMostOne));
     }
@@ -246,14 +247,14 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
 fn non_delta_zoo() -> Vec<Bsdf> {
     let mut v = vec![
         diffuse(0.7),
-        two(Bsdf::Diffuse {
+        two(Bsdf::Diffuse(Diffuse {
             reflectance: Vec3::new(0.9, 0.5, 0.1),
-        }),
+        })),
     ];
     for alpha in ALPHAS {
         for kind in KINDS {
             v.push(rough_with(kind, alpha, true, None));
-            v.push(two(Bsdf::RoughConductor {
+            v.push(two(Bsdf::RoughConductor(RoughConductor {
                 distribution: Microfacet {
                     kind,
                     alpha,
@@ -261,7 +262,7 @@ fn non_delta_zoo() -> Vec<Bsdf> {
                 },
                 specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
                 eta_k: Some((AU_ETA, AU_K)),
-            }));
+            })));
         }
     }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
@@ -269,7 +270,7 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     v.push(blend(
         0.5,
         diffuse(0.5),
-        blend(0.4, rough(0.3, None), Bsdf::Dielectric { eta: 1.5 }),
+        blend(0.4, rough(0.3, None), Bsdf::Dielectric(Dielectric { eta: 1.5 })),
     ));
     v
 }
@@ -387,7 +388,7 @@ fn roughconductor_energy() {
 #[test]
 fn blend_energy_is_the_weighted_sum() {
     let (d, rc) = (Vec3::new(0.8, 0.6, 0.4), rough(0.2, Some((AU_ETA, AU_K))));
-    let b = blend(0.3, two(Bsdf::Diffuse { reflectance: d }), rc.clone());
+    let b = blend(0.3, two(Bsdf::Diffuse(Diffuse { reflectance: d })), rc.clone());
     for t in [0.0, 45.0, 80.0, 130.0] {
         let wo = wo_at(t);
         let (albedo, se) = sampled_albedo(&b, wo, 200_000);
@@ -400,7 +401,7 @@ fn blend_energy_is_the_weighted_sum() {
         );
     }
     // Diffuse + mirror: 0.7·R_d + 0.3·R_mirror.
-    let b = blend(0.3, two(Bsdf::Diffuse { reflectance: d }), mirror());
+    let b = blend(0.3, two(Bsdf::Diffuse(Diffuse { reflectance: d })), mirror());
     for t in [20.0, 100.0] {
         let (albedo, se) = sampled_albedo(&b, wo_at(t), 200_000);
         let want = 0.7 * d + 0.3 * Vec3::new(0.9, 0.8, 0.7);
@@ -421,7 +422,7 @@ fn blend_delta_sample_reports_selection_probability() {
     let s = b.sample(wo, 0.2, Vec2::new(0.3, 0.3), TransportMode::Radiance).expect("diffuse");
     assert!(!s.delta && (s.pdf_w - 0.7 * s.wi_local.z / std::f32::consts::PI).abs() < 1e-6);
     // Glass inside a blend: the Fresnel choice happens with the rescaled u_lobe.
-    let g = blend(0.5, diffuse(0.5), Bsdf::Dielectric { eta: 1.5 });
+    let g = blend(0.5, diffuse(0.5), Bsdf::Dielectric(Dielectric { eta: 1.5 }));
     let (r, ..) = fresnel_dielectric(1.0, 1.5);
     let s = g
         .sample(Vec3::Z, 0.5 + 0.5 * 0.5 * r, Vec2::ZERO, TransportMode::Radiance)
@@ -449,7 +450,7 @@ fn delta_flags() {
 /// dimension): the same sample for any `u_lobe` there, and some `u_lobe` that changes the sample elsewhere.
 #[test]
 fn chooses_lobe_exactly_where_u_lobe_is_read() {
-    let dielectric = Bsdf::Dielectric { eta: 1.5 };
+    let dielectric = Bsdf::Dielectric(Dielectric { eta: 1.5 });
     let cases = [
         (diffuse(0.8), false),
         (two(diffuse(0.8)), false),
@@ -480,12 +481,12 @@ fn never_nan_at_grazing_or_degenerate_input() {
     let mut zoo = non_delta_zoo();
     zoo.extend([
         mirror(),
-        Bsdf::Conductor {
+        Bsdf::Conductor(Conductor {
             specular_reflectance: Vec3::ONE,
             eta_k: Some((AU_ETA, AU_K)),
-        },
-        Bsdf::Diffuse { reflectance: Vec3::ONE },
-        Bsdf::RoughConductor {
+        }),
+        Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }),
+        Bsdf::RoughConductor(RoughConductor {
             distribution: Microfacet {
                 kind: MicrofacetType::Beckmann,
                 alpha: 0.3,
@@ -493,17 +494,17 @@ fn never_nan_at_grazing_or_degenerate_input() {
             },
             specular_reflectance: Vec3::ONE,
             eta_k: None,
-        },
-        Bsdf::Dielectric { eta: 1.5 },
-        Bsdf::Dielectric { eta: 1.0 },
-        Bsdf::Dielectric { eta: 1.0 / 1.33 },
+        }),
+        Bsdf::Dielectric(Dielectric { eta: 1.5 }),
+        Bsdf::Dielectric(Dielectric { eta: 1.0 }),
+        Bsdf::Dielectric(Dielectric { eta: 1.0 / 1.33 }),
         rough(0.0, None),
         rough(1e-7, Some((AU_ETA, AU_K))),
         rough_with(MicrofacetType::Beckmann, 0.0, true, None),
         rough_with(MicrofacetType::Beckmann, 1e-7, false, Some((AU_ETA, AU_K))),
         rough_with(MicrofacetType::Beckmann, 2.0, true, None),
         blend(0.0, diffuse(1.0), rough(0.5, None)),
-        blend(1.0, diffuse(1.0), Bsdf::Dielectric { eta: 1.5 }),
+        blend(1.0, diffuse(1.0), Bsdf::Dielectric(Dielectric { eta: 1.5 })),
     ]);
     let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
     let mut wos = Vec::new();
@@ -558,11 +559,11 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
         rough(0.3, gold),
         rough_with(MicrofacetType::Beckmann, 0.3, true, gold),
         rough_with(MicrofacetType::Beckmann, 0.3, false, None),
-        Bsdf::Diffuse { reflectance: Vec3::ONE },
+        Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }),
         blend(0.5, diffuse(0.5), rough(0.1, None)),
         blend(0.3, diffuse(0.5), mirror()),
         mirror(),
-        Bsdf::Dielectric { eta: 1.5 },
+        Bsdf::Dielectric(Dielectric { eta: 1.5 }),
     ];
     let mut s = Sampler::for_key(11, 0, 0);
     for bsdf in &cases {
@@ -580,8 +581,8 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
 fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
     let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
     let one_sided = [
-        Bsdf::Diffuse { reflectance: Vec3::splat(0.7) },
-        Bsdf::RoughConductor {
+        Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.7) }),
+        Bsdf::RoughConductor(RoughConductor {
             distribution: Microfacet {
                 kind: MicrofacetType::Beckmann,
                 alpha: 0.3,
@@ -589,12 +590,12 @@ fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
             },
             specular_reflectance: Vec3::ONE,
             eta_k: Some((AU_ETA, AU_K)),
-        },
-        Bsdf::Conductor {
+        }),
+        Bsdf::Conductor(Conductor {
             specular_reflectance: Vec3::ONE,
             eta_k: None,
-        },
-        blend(0.4, Bsdf::Diffuse { reflectance: Vec3::ONE }, Bsdf::Conductor { specular_reflectance: Vec3::ONE, eta_k: None }),
+        }),
+        blend(0.4, Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }), Bsdf::Conductor(Conductor { specular_reflectance: Vec3::ONE, eta_k: None })),
     ];
     let mut s = Sampler::for_key(34, 0, 0);
     for b in &one_sided {

@@ -36,12 +36,8 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
 /// The BSDF's Mitsuba plugin name; a `twosided` wrapper is named by what it wraps.
 fn bsdf_kind(b: &Bsdf) -> &'static str {
     match b {
-        Bsdf::TwoSided(inner) => bsdf_kind(inner),
-        Bsdf::Diffuse { .. } => "diffuse",
-        Bsdf::Conductor { .. } => "conductor",
-        Bsdf::RoughConductor { .. } => "roughconductor",
-        Bsdf::Dielectric { .. } => "dielectric",
-        Bsdf::Blend { .. } => "blendbsdf",
+        Bsdf::TwoSided(two_sided) => bsdf_kind(&two_sided.0),
+        other => other.type_name(),
     }
 }
 

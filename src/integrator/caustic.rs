@@ -634,6 +634,7 @@ impl<'a> CausticEstimator<'a> {
 
 #[cfg(test)]
 mod tests {
+    use crate::bsdf::{Diffuse, RoughConductor};
     use super::*;
     use crate::math::{Frame, Vec2};
     use crate::photon::kdtree::KdTree;
@@ -650,7 +651,7 @@ mod tests {
     /// `queries` uniform points of [−½, ½]² per map, for a white diffuse plane (f = 1/π), divided by the
     /// exact radiance E/π; also the largest |ΔA − π·s·r²_kNN| seen.
     fn mean_ratio(area_scale: f32, k: usize, maps: u64, m: u64, queries: u64) -> (f64, f32) {
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
         let mut sum = 0.0f64;
         let mut worst_area = 0.0f32;
         let mut state = GatherState::default();
@@ -734,7 +735,7 @@ mod tests {
             .collect();
         let mut with_outlier = disk.clone();
         with_outlier.push(Photon::new(Vec3::new(500.0, 0.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0));
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
         let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
         let mut state = GatherState::default();
         let mut estimate = |photons: Vec<Photon>| {
@@ -799,7 +800,7 @@ mod tests {
     fn a_deferred_area_is_the_estimates() {
         let map = plane_map(4000);
         let est = CausticEstimator::new(Estimator::Mis, Some(&map), 20, 0.2, 1.0);
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
         let (mut gather_state, mut area_state) = (GatherState::default(), GatherState::default());
         let mut s = Sampler::for_key(22, 0, 0);
         let (mut full, mut partial, mut empty) = (0, 0, 0);
@@ -828,7 +829,7 @@ mod tests {
         let map = plane_map(400);
         let max_radius = 0.2;
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 60, max_radius, 1.0);
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.5) });
         let si = plane_point(Vec3::new(0.1, -0.2, 0.0));
         let near = est.occupancy.as_ref().unwrap().photons_near(si.p).unwrap();
         assert!(near.power > 0.0 && near.fewer_than(60), "{near:?}");
@@ -847,15 +848,15 @@ mod tests {
         assert_eq!(est.estimate_bound(&vertex(&est, &far, &bsdf, Vec3::Z), &mut state.scratch()), Some(0.0));
         assert_eq!(est.gather_probability(&vertex(&est, &far, &bsdf, Vec3::Z), beta, Vec3::ONE, &mut state.scratch()), GATHER_MIN_PROBABILITY);
         // A BSDF that reflects nothing toward the photons: the estimate is 0, P is the least.
-        assert_eq!(est.gather_probability(&vertex(&est, &si, &Bsdf::Diffuse { reflectance: Vec3::ZERO }, Vec3::Z), beta, Vec3::ONE, &mut state.scratch()), GATHER_MIN_PROBABILITY);
+        assert_eq!(est.gather_probability(&vertex(&est, &si, &Bsdf::Diffuse(Diffuse { reflectance: Vec3::ZERO }), Vec3::Z), beta, Vec3::ONE, &mut state.scratch()), GATHER_MIN_PROBABILITY);
         // A sharp GGX lobe: the bound takes f toward the photons' directions (all straight down, +z), not at
         // its peak. Seen along the normal the peak is where the photons arrive from: P = 1. Seen from 60°
         // off the normal, f toward +z is the lobe's tail, far below its peak, and so is P.
-        let glossy = Bsdf::RoughConductor {
+        let glossy = Bsdf::RoughConductor(RoughConductor {
             distribution: crate::bsdf::Microfacet { kind: crate::bsdf::MicrofacetType::Ggx, alpha: 0.01, sample_visible: true },
             specular_reflectance: Vec3::ONE,
             eta_k: None,
-        };
+        });
         let oblique = Vec3::new(3f32.sqrt() / 2.0, 0.0, 0.5);
         let (tail, _) = glossy.f_pdf(oblique, Vec3::Z, TransportMode::Radiance);
         let (peak, _) = glossy.f_pdf(oblique, Vec3::new(-oblique.x, 0.0, oblique.z), TransportMode::Radiance);
@@ -878,7 +879,7 @@ mod tests {
         let m = 20_000u64;
         let (map, mut s) = hemisphere_plane_map(m, 23, |_| Vec3::ONE);
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.5, 1.0);
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.5) });
         let mut state = GatherState::default();
         let p0 = plane_point(Vec3::new(0.3, 0.1, 0.0));
         assert!(!est.occupancy.as_ref().unwrap().photons_near(p0.p).unwrap().fewer_than(20));
@@ -909,7 +910,7 @@ mod tests {
         let m = 1000u64;
         let (map, mut s) = hemisphere_plane_map(m, 24, |s| Vec3::new(1.0, 0.5 + s.next_1d(), 0.2));
         let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 0.1, 1.0);
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::splat(0.5) };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.5) });
         let (mut sparse, mut bounded) = (0, 0);
         for i in 0..400 {
             let u = s.next_2d();

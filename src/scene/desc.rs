@@ -160,49 +160,29 @@ impl RFilterType {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum BsdfType {
-    Diffuse,
-    Conductor,
-    RoughConductor,
-    Dielectric,
-    BlendBsdf,
-    TwoSided,
+/// A bsdf table: its `type` and its other keys, which the type's own constructor reads (`crate::bsdf`'s
+/// plugins, through `material`).
+#[derive(Debug)]
+pub(crate) struct BsdfDesc {
+    pub kind: String,
+    pub props: toml::Table,
 }
 
-impl BsdfType {
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            BsdfType::Diffuse => "diffuse",
-            BsdfType::Conductor => "conductor",
-            BsdfType::RoughConductor => "roughconductor",
-            BsdfType::Dielectric => "dielectric",
-            BsdfType::BlendBsdf => "blendbsdf",
-            BsdfType::TwoSided => "twosided",
+impl BsdfDesc {
+    /// The table's `type` and the rest of it.
+    pub(crate) fn from_table(mut props: toml::Table) -> Result<Self, String> {
+        match props.remove("type") {
+            Some(toml::Value::String(kind)) => Ok(Self { kind, props }),
+            Some(other) => Err(format!("invalid type: {}, expected the bsdf type's name (a string)", other.type_str())),
+            None => Err("missing field `type`".into()),
         }
     }
 }
 
-#[derive(Debug, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct BsdfDesc {
-    #[serde(rename = "type")]
-    pub kind: BsdfType,
-    pub reflectance: Option<Colour>,
-    pub specular_reflectance: Option<Colour>,
-    pub eta: Option<Colour>,
-    pub k: Option<Colour>,
-    pub material: Option<String>,
-    pub alpha: Option<f32>,
-    pub distribution: Option<String>,
-    pub sample_visible: Option<bool>,
-    pub int_ior: Option<Ior>,
-    pub ext_ior: Option<Ior>,
-    pub weight: Option<f32>,
-    pub bsdf_0: Option<Box<BsdfRef>>,
-    pub bsdf_1: Option<Box<BsdfRef>>,
-    pub bsdf: Option<Box<BsdfRef>>,
+impl<'de> Deserialize<'de> for BsdfDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        BsdfDesc::from_table(toml::Table::deserialize(deserializer)?).map_err(D::Error::custom)
+    }
 }
 
 /// A bsdf given by the name of a `[bsdf.<name>]` table or inline.
@@ -231,35 +211,14 @@ impl<'de> Deserialize<'de> for BsdfRef {
     }
 }
 
-/// An index of refraction: a number or one of Mitsuba's named materials (`"bk7"`, `"water"`, ...).
-#[derive(Clone, Debug)]
-pub(crate) enum Ior {
-    Value(f32),
-    Name(String),
-}
-
-impl<'de> Deserialize<'de> for Ior {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct V;
-        impl Visitor<'_> for V {
-            type Value = Ior;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or the name of a material (e.g. \"bk7\")")
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Ior, E> {
-                Ok(Ior::Value(v as f32))
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Ior, E> {
-                Ok(Ior::Value(v as f32))
-            }
-            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Ior, E> {
-                Ok(Ior::Value(v as f32))
-            }
-            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Ior, E> {
-                Ok(Ior::Name(v.to_string()))
-            }
+impl BsdfRef {
+    /// A nested bsdf as a plugin's key holds it (a blend's `bsdf_0`, ...): a name or a table.
+    pub(crate) fn from_value(value: &toml::Value) -> Result<Self, String> {
+        match value {
+            toml::Value::String(name) => Ok(BsdfRef::Name(name.clone())),
+            toml::Value::Table(t) => BsdfDesc::from_table(t.clone()).map(|d| BsdfRef::Inline(Box::new(d))),
+            other => Err(format!("invalid type: {}, expected the name of a [bsdf.<name>] table or an inline bsdf table", other.type_str())),
         }
-        deserializer.deserialize_any(V)
     }
 }
 

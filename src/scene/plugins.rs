@@ -1,13 +1,15 @@
-//! The plugin types caustica renders and the keys each takes: **the one list** behind the key checks of
-//! both scene formats (a key that does not apply to its plugin's type is an error naming the type's keys)
-//! and behind the XML reader's report of everything a scene uses that caustica cannot render
-//! (`xml::unsupported`). A new plugin type is one row here plus its variant where its values are built
-//! (`desc`, and `material` for BSDFs, `build` for shapes and emitters, `film::filter` for filters).
+//! The plugin types caustica renders and the keys each takes, behind the key checks of both scene formats
+//! (a key that does not apply to its plugin's type is an error naming the type's keys) and behind the XML
+//! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). BSDF types
+//! are listed by the BSDFs themselves (`crate::bsdf::PLUGINS`: each file its keys, defaults, checks and
+//! constructor); the other roles' types are the rows of `TYPES` here, built in `build` (shapes, emitters)
+//! and `film::filter`.
 //!
 //! Keys keep Mitsuba's property names, so the same names serve the TOML tables and the XML properties.
 
 use super::error::{ErrorContext, SceneError};
 use super::spans::join_key;
+use crate::bsdf;
 
 /// What kind of plugin a type is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,14 +40,8 @@ impl Role {
     }
 }
 
-/// (role, type, the type's own keys). `area` is the emitter attached to a shape.
+/// (role, type, the type's own keys) of the roles other than BSDFs. `area` is the emitter attached to a shape.
 const TYPES: &[(Role, &str, &[&str])] = &[
-    (Role::Bsdf, "diffuse", &["reflectance"]),
-    (Role::Bsdf, "conductor", &["specular_reflectance", "material", "eta", "k"]),
-    (Role::Bsdf, "roughconductor", &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"]),
-    (Role::Bsdf, "dielectric", &["int_ior", "ext_ior"]),
-    (Role::Bsdf, "blendbsdf", &["weight", "bsdf_0", "bsdf_1"]),
-    (Role::Bsdf, "twosided", &["bsdf"]),
     (Role::Shape, "obj", &["filename", "face_normals"]),
     (Role::Shape, "ply", &["filename", "face_normals"]),
     (Role::Shape, "serialized", &["filename", "shape_index", "face_normals"]),
@@ -68,17 +64,26 @@ const TYPES: &[(Role, &str, &[&str])] = &[
 
 /// Every key type `name` of `role` takes (the role's common keys, then its own); `None` for an unknown type.
 pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
-    let (_, _, own) = TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?;
+    let own = match role {
+        Role::Bsdf => bsdf::plugin(name)?.keys,
+        _ => TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?.2,
+    };
     Some(role.common().iter().chain(own.iter()).copied().collect())
 }
 
 /// The key rule: the first key of `present` (key, given) that is given but that type `name` of `role`
 /// does not take is an error at `key.<that key>`, naming the type's keys.
 pub(crate) fn check_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, present: &[(&str, bool)]) -> Result<(), SceneError> {
+    let given: Vec<&str> = present.iter().filter(|(_, given)| *given).map(|(k, _)| *k).collect();
+    check_given_keys(ctx, key, role, name, &given)
+}
+
+/// [`check_keys`] for the keys `given`.
+pub(crate) fn check_given_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, given: &[&str]) -> Result<(), SceneError> {
     let allowed = keys(role, name).unwrap_or_default();
-    match present.iter().find(|(k, given)| *given && !allowed.contains(k)) {
+    match given.iter().find(|k| !allowed.contains(k)) {
         None => Ok(()),
-        Some((k, _)) => Err(ctx.key_error(&join_key(key, k), not_applicable(k, role.name(), name, &allowed))),
+        Some(k) => Err(ctx.key_error(&join_key(key, k), not_applicable(k, role.name(), name, &allowed))),
     }
 }
 
@@ -101,6 +106,7 @@ mod tests {
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals"]);
         assert_eq!(keys(Role::Bsdf, "roughplastic"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
-        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::Bsdf).count(), 6);
+        assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);
+        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::Bsdf).count(), 0, "BSDF types are listed by crate::bsdf");
     }
 }

@@ -58,7 +58,7 @@ fn bad_keys_and_types_name_the_key() {
         (
             shape_with("bsdf = { type = \"diffuse\", roughness = 0.1 }"),
             "shape[0].bsdf.roughness",
-            "unknown field `roughness`",
+            "`roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)",
         ),
         (
             shape_with("bsdf = { type = \"diffuse\", alpha = 0.1 }"),
@@ -98,7 +98,7 @@ fn bad_keys_and_types_name_the_key() {
         ("[sensor]\nfocal_length = \"-5mm\"".into(), "sensor.focal_length", "not a focal length"),
         (shape_with("bsdf = { reflectance = 0.5 }"), "shape[0].bsdf", "missing field `type`"),
         (
-            minimal("[bsdf.a]\ntype = \"blendbsdf\"\nbsdf_0 = \"a\"\nbsdf_1 = { type = \"diffuse\" }\nweight = \"half\""),
+            minimal("[bsdf.a]\ntype = \"blendbsdf\"\nbsdf_0 = { type = \"diffuse\" }\nbsdf_1 = { type = \"diffuse\" }\nweight = \"half\""),
             "bsdf.a.weight",
             "invalid type",
         ),

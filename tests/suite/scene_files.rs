@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use caustica::accel::brute::BruteForce;
 use caustica::accel::{Accel, Hit};
-use caustica::bsdf::Bsdf;
+use caustica::bsdf::{Bsdf, Conductor, Dielectric, Diffuse, TwoSided};
 use caustica::light::Light;
 use caustica::math::{Ray, Vec3};
 use caustica::scene::{Estimator, Scene, SceneError};
@@ -57,7 +57,7 @@ fn cornell_matches_the_reference_numbers() {
             assert!(s.tri_flat[2 * i + k]);
             assert_eq!(
                 s.bsdfs[s.tri_material[2 * i + k] as usize],
-                Bsdf::TwoSided(Box::new(Bsdf::Diffuse { reflectance: refl }))
+                Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Diffuse(Diffuse { reflectance: refl }))))
             );
         }
         // The wall spans the full [-1,1]² square.
@@ -77,7 +77,7 @@ fn cornell_matches_the_reference_numbers() {
             );
         }
     }
-    assert_eq!(s.bsdfs[s.tri_material[10] as usize], Bsdf::Diffuse { reflectance: Vec3::ZERO });
+    assert_eq!(s.bsdfs[s.tri_material[10] as usize], Bsdf::Diffuse(Diffuse { reflectance: Vec3::ZERO }));
     assert_eq!(s.lights.lights().len(), 1);
     match &s.lights.lights()[0] {
         Light::Area(a) => {
@@ -94,12 +94,12 @@ fn cornell_matches_the_reference_numbers() {
     let glass = 12 + sphere_tris;
     assert_eq!(
         s.bsdfs[s.tri_material[mirror] as usize],
-        Bsdf::TwoSided(Box::new(Bsdf::Conductor {
+        Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Conductor(Conductor {
             specular_reflectance: Vec3::ONE,
             eta_k: None
-        }))
+        }))))
     );
-    assert_eq!(s.bsdfs[s.tri_material[glass] as usize], Bsdf::Dielectric { eta: 1.5 });
+    assert_eq!(s.bsdfs[s.tri_material[glass] as usize], Bsdf::Dielectric(Dielectric { eta: 1.5 }));
     assert!(!s.tri_flat[mirror] && !s.tri_flat[glass]);
     for (first, c, r) in [
         (mirror, Vec3::new(-0.45, -0.65, -0.3), 0.35f32),
@@ -139,9 +139,9 @@ fn interactions_from_hits() {
     assert_eq!(si.prim / 2, 2);
     assert_eq!(
         s.bsdfs[si.material as usize],
-        Bsdf::TwoSided(Box::new(Bsdf::Diffuse {
+        Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Diffuse(Diffuse {
             reflectance: Vec3::splat(0.8)
-        }))
+        }))))
     );
 
     // Rays at the glass sphere from the camera: smooth normal close to the exact sphere normal; a reflected

@@ -20,7 +20,7 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use caustica::bsdf::Bsdf;
+use caustica::bsdf::{Bsdf, Conductor, Diffuse};
 use caustica::film::{Image, PixelFilter};
 use caustica::light::Light;
 use caustica::math::Vec3;
@@ -212,7 +212,7 @@ fn spectra_read_as_mitsubas_rgb_variants_read_them() {
     let assert_rgb = |what: &str, got: Vec3, want: [f32; 3]| {
         assert!((0..3).all(|c| close(got[c], want[c], 1e-5)), "{what}: {got} vs Mitsuba's {want:?}");
     };
-    let diffuse: Vec<Vec3> = s.bsdfs.iter().filter_map(|b| if let Bsdf::Diffuse { reflectance } = b { Some(*reflectance) } else { None }).collect();
+    let diffuse: Vec<Vec3> = s.bsdfs.iter().filter_map(|b| if let Bsdf::Diffuse(Diffuse { reflectance }) = b { Some(*reflectance) } else { None }).collect();
     // The two spectral ones and the lamp's default (0.5).
     assert_eq!(diffuse.len(), 3, "{:?}", s.bsdfs);
     let find = |want: [f32; 3]| *diffuse.iter().min_by(|a, b| (**a - Vec3::from(want)).length().total_cmp(&(**b - Vec3::from(want)).length())).expect("three");
@@ -220,7 +220,7 @@ fn spectra_read_as_mitsubas_rgb_variants_read_them() {
     let file = [0.3271156847476959, 0.5519921779632568, 0.21447068452835083];
     assert_rgb("diffuse, wavelength list", find(list), list);
     assert_rgb("diffuse, .spd file", find(file), file);
-    let Some(Bsdf::Conductor { eta_k: Some((eta, k)), .. }) = s.bsdfs.iter().find(|b| matches!(b, Bsdf::Conductor { .. })) else {
+    let Some(Bsdf::Conductor(Conductor { eta_k: Some((eta, k)), .. })) = s.bsdfs.iter().find(|b| matches!(b, Bsdf::Conductor(Conductor { .. }))) else {
         panic!("no conductor with eta and k: {:?}", s.bsdfs)
     };
     assert_rgb("conductor eta", *eta, [0.4732967019081116, 0.9254528880119324, 1.33051598072052]);

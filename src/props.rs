@@ -1,0 +1,317 @@
+//! A plugin's properties as written, read by the plugin's own constructor: Mitsuba 3's `Properties`
+//! (src/core/properties.cpp) and pbrt-v4's `ParameterDictionary`. Each plugin type lists its keys once, in
+//! its own file, and reads each one with its default and its check through a getter here; the scene
+//! readers (TOML and Mitsuba XML, whose properties arrive as the same TOML table) only find the plugin by
+//! its type name, refuse keys it does not list and resolve the nested plugins it names.
+//!
+//! The getters are the one place each kind of value is checked (finite numbers, ranges, reflectances,
+//! radiances), also for values outside plugins (`scene::validate` calls the same checks). An error names
+//! the key relative to the plugin ([`PropError`]); the scene reader adds the plugin's key path, file and
+//! line.
+
+use std::fmt;
+
+use toml::{Table, Value};
+
+use crate::math::Vec3;
+
+/// A value a plugin cannot use: its key (relative to the plugin; `""` = the plugin itself) and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PropError {
+    pub key: String,
+    pub message: String,
+}
+
+impl PropError {
+    pub(crate) fn new(key: &str, message: impl Into<String>) -> Self {
+        Self { key: key.to_string(), message: message.into() }
+    }
+}
+
+impl fmt::Display for PropError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.key, self.message)
+    }
+}
+
+/// One plugin's properties: its table (without `type`) and the nested plugins of kind `C` the scene
+/// reader resolved for it (a blend's `bsdf_0`, ...).
+pub struct Props<'a, C> {
+    table: &'a Table,
+    /// The keys the plugin type takes (its list, for the debug check that a getter reads only those).
+    keys: &'static [&'static str],
+    nested: Vec<(&'a str, C)>,
+}
+
+/// A number, or a name from a table of named values (Mitsuba's IOR names, conductor names).
+#[derive(Clone, Debug, PartialEq)]
+pub enum NumberOrName<'a> {
+    Number(f32),
+    Name(&'a str),
+}
+
+impl<'a, C> Props<'a, C> {
+    /// `table`'s keys must all be among `keys` (the scene reader checks that first, naming the type's keys).
+    pub(crate) fn new(table: &'a Table, keys: &'static [&'static str], nested: Vec<(&'a str, C)>) -> Self {
+        Self { table, keys, nested }
+    }
+
+    /// The value at `key`, if given.
+    fn get(&self, key: &str) -> Option<&'a Value> {
+        debug_assert!(self.keys.contains(&key), "the plugin reads `{key}`, which its key list does not name");
+        self.table.get(key)
+    }
+
+    /// Whether `key` is given.
+    #[must_use]
+    pub fn has(&self, key: &str) -> bool {
+        self.get(key).is_some()
+    }
+
+    /// The nested plugin at `key`, resolved by the scene reader; `None` when the key is absent.
+    pub fn take_nested(&mut self, key: &str) -> Option<C> {
+        debug_assert!(self.keys.contains(&key), "the plugin reads `{key}`, which its key list does not name");
+        let i = self.nested.iter().position(|(k, _)| *k == key)?;
+        Some(self.nested.swap_remove(i).1)
+    }
+
+    /// A finite number, or `default` when absent.
+    pub fn float_or(&self, key: &str, default: f32) -> Result<f32, PropError> {
+        self.get(key).map_or(Ok(default), |v| number(v).and_then(finite).map_err(|m| PropError::new(key, m)))
+    }
+
+    /// A finite number > 0 (`what` names it in the message), or `default` when absent.
+    pub fn positive_or(&self, key: &str, default: f32, what: &str) -> Result<f32, PropError> {
+        match self.get(key) {
+            None => Ok(default),
+            Some(v) => number(v).and_then(|x| positive(x, what)).map_err(|m| PropError::new(key, m)),
+        }
+    }
+
+    /// A finite number in `[lo, hi]` (`what` names it), or `default` when absent.
+    pub fn in_range_or(&self, key: &str, default: f32, lo: f32, hi: f32, what: &str) -> Result<f32, PropError> {
+        match self.get(key) {
+            None => Ok(default),
+            Some(v) => number(v).and_then(|x| in_range(x, lo, hi, what)).map_err(|m| PropError::new(key, m)),
+        }
+    }
+
+    /// Three finite numbers written as one (gray) or `[r, g, b]`.
+    pub fn colour(&self, key: &str) -> Result<Option<Vec3>, PropError> {
+        self.get(key).map(|v| colour(v).and_then(finite3).map_err(|m| PropError::new(key, m))).transpose()
+    }
+
+    /// An RGB reflectance (each component in [0, 1]), or `default` when absent.
+    pub fn reflectance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
+        self.get(key).map_or(Ok(default), |v| colour(v).and_then(reflectance).map_err(|m| PropError::new(key, m)))
+    }
+
+    /// An RGB radiance (each component finite and ≥ 0), or `default` when absent.
+    pub fn radiance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
+        self.get(key).map_or(Ok(default), |v| colour(v).and_then(radiance).map_err(|m| PropError::new(key, m)))
+    }
+
+    /// A string, if given.
+    pub fn string(&self, key: &str) -> Result<Option<&'a str>, PropError> {
+        match self.get(key) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(s)),
+            Some(v) => Err(PropError::new(key, invalid_type(v, "a string"))),
+        }
+    }
+
+    /// A boolean, or `default` when absent.
+    pub fn bool_or(&self, key: &str, default: bool) -> Result<bool, PropError> {
+        match self.get(key) {
+            None => Ok(default),
+            Some(Value::Boolean(b)) => Ok(*b),
+            Some(v) => Err(PropError::new(key, invalid_type(v, "a boolean"))),
+        }
+    }
+
+    /// A number or a name (checked by the caller against its table of names), if given.
+    pub fn number_or_name(&self, key: &str) -> Result<Option<NumberOrName<'a>>, PropError> {
+        match self.get(key) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(NumberOrName::Name(s))),
+            Some(v) => number(v).map(|x| Some(NumberOrName::Number(x))).map_err(|m| PropError::new(key, m)),
+        }
+    }
+}
+
+/// How a TOML value's type is named in messages.
+fn type_name(v: &Value) -> String {
+    match v {
+        Value::String(s) => format!("string {:?}", shorten(s)),
+        Value::Integer(i) => format!("integer `{i}`"),
+        Value::Float(x) => format!("floating point `{x}`"),
+        Value::Boolean(b) => format!("boolean `{b}`"),
+        Value::Datetime(_) => "a date".into(),
+        Value::Array(_) => "an array".into(),
+        Value::Table(_) => "a table".into(),
+    }
+}
+
+/// A string cut to a readable length for a message.
+fn shorten(s: &str) -> String {
+    const MAX_CHARS: usize = 80;
+    match s.char_indices().nth(MAX_CHARS) {
+        None => s.to_string(),
+        Some((end, _)) => format!("{}…", &s[..end]),
+    }
+}
+
+/// The message for a value of the wrong type (worded as serde's, which the rest of a scene file gets).
+fn invalid_type(v: &Value, expected: &str) -> String {
+    format!("invalid type: {}, expected {expected}", type_name(v))
+}
+
+/// A number (TOML integer or float) as f32.
+fn number(v: &Value) -> Result<f32, String> {
+    match v {
+        Value::Float(x) => Ok(*x as f32),
+        Value::Integer(i) => Ok(*i as f32),
+        _ => Err(invalid_type(v, "a number")),
+    }
+}
+
+/// One number (gray) or an array of exactly three.
+fn colour(v: &Value) -> Result<Vec3, String> {
+    const EXPECTED: &str = "a number (gray) or an array [r, g, b]";
+    match v {
+        Value::Float(_) | Value::Integer(_) => number(v).map(Vec3::splat),
+        Value::Array(a) if a.len() == 3 => {
+            let mut c = [0.0; 3];
+            for (i, x) in a.iter().enumerate() {
+                c[i] = number(x).map_err(|_| format!("component {i}: {}", invalid_type(x, "a number")))?;
+            }
+            Ok(Vec3::from_array(c))
+        }
+        Value::Array(a) => Err(format!("invalid length {}, expected {EXPECTED}", a.len())),
+        _ => Err(invalid_type(v, EXPECTED)),
+    }
+}
+
+/// Why a number is not acceptable as a finite value (`None` if it is finite).
+fn non_finite(v: f32) -> Option<&'static str> {
+    if v.is_nan() {
+        Some("is NaN")
+    } else if v.is_infinite() {
+        Some("is infinite")
+    } else {
+        None
+    }
+}
+
+/// A finite number.
+pub(crate) fn finite(v: f32) -> Result<f32, String> {
+    match non_finite(v) {
+        Some(why) => Err(format!("the value {why}; it must be a finite number")),
+        None => Ok(v),
+    }
+}
+
+/// A finite number > 0 (`what` names it).
+pub(crate) fn positive(v: f32, what: &str) -> Result<f32, String> {
+    finite(v)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be > 0, got {v}"))
+    }
+}
+
+/// A finite number in `[lo, hi]` (`what` names it).
+pub(crate) fn in_range(v: f32, lo: f32, hi: f32, what: &str) -> Result<f32, String> {
+    finite(v)?;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be in [{lo}, {hi}], got {v}"))
+    }
+}
+
+/// Three finite numbers.
+pub(crate) fn finite3(v: Vec3) -> Result<Vec3, String> {
+    for i in 0..3 {
+        if let Some(why) = non_finite(v[i]) {
+            return Err(format!("component {i} {why}; it must be a finite number"));
+        }
+    }
+    Ok(v)
+}
+
+/// An RGB reflectance: every component finite and in [0, 1].
+pub(crate) fn reflectance(v: Vec3) -> Result<Vec3, String> {
+    for i in 0..3 {
+        let c = v[i];
+        let why = match non_finite(c) {
+            Some(why) => why.to_string(),
+            None if c < 0.0 => format!("is negative ({c})"),
+            None if c > 1.0 => format!("is {c} > 1 (a reflectance above 1 creates energy)"),
+            None => continue,
+        };
+        return Err(format!("reflectance component {i} {why}; each component must be in [0, 1]"));
+    }
+    Ok(v)
+}
+
+/// An RGB radiance: every component finite and ≥ 0.
+pub(crate) fn radiance(v: Vec3) -> Result<Vec3, String> {
+    for i in 0..3 {
+        let c = v[i];
+        let why = match non_finite(c) {
+            Some(why) => why.to_string(),
+            None if c < 0.0 => format!("is negative ({c})"),
+            None => continue,
+        };
+        return Err(format!("radiance component {i} {why}; each component must be finite and ≥ 0"));
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(text: &str) -> Table {
+        text.parse().unwrap()
+    }
+
+    #[test]
+    fn getters_read_defaults_values_and_name_the_key_of_a_bad_one() {
+        let t = table("a = 2\nc = [0.1, 0.2, 0.3]\ns = \"x\"\nb = true\nbad = \"red\"\nshort = [1, 2]\nhigh = 1.5");
+        const KEYS: &[&str] = &["a", "c", "s", "b", "bad", "short", "high", "absent"];
+        let p: Props<'_, ()> = Props::new(&t, KEYS, Vec::new());
+        assert_eq!(p.float_or("a", 0.0), Ok(2.0));
+        assert_eq!(p.float_or("absent", 0.25), Ok(0.25));
+        assert_eq!(p.colour("c"), Ok(Some(Vec3::new(0.1, 0.2, 0.3))));
+        assert_eq!(p.reflectance_or("a", Vec3::ZERO).unwrap_err().message, "reflectance component 0 is 2 > 1 (a reflectance above 1 creates energy); each component must be in [0, 1]");
+        assert_eq!(p.string("s"), Ok(Some("x")));
+        assert_eq!(p.bool_or("b", false), Ok(true));
+        let e = p.colour("bad").unwrap_err();
+        assert_eq!((e.key.as_str(), e.message.as_str()), ("bad", "invalid type: string \"red\", expected a number (gray) or an array [r, g, b]"));
+        assert!(p.colour("short").unwrap_err().message.starts_with("invalid length 2"));
+        assert_eq!(p.in_range_or("high", 0.5, 0.0, 1.0, "the weight").unwrap_err().message, "the weight must be in [0, 1], got 1.5");
+        assert_eq!(p.positive_or("absent", 0.1, "alpha"), Ok(0.1));
+        assert_eq!(p.number_or_name("s"), Ok(Some(NumberOrName::Name("x"))));
+        assert_eq!(p.number_or_name("a"), Ok(Some(NumberOrName::Number(2.0))));
+    }
+
+    #[test]
+    fn long_strings_are_cut_in_messages() {
+        let long = "y".repeat(100_000);
+        let t = table(&format!("s = \"{long}\""));
+        let p: Props<'_, ()> = Props::new(&t, &["s"], Vec::new());
+        let m = p.float_or("s", 0.0).unwrap_err().message;
+        assert!(m.len() < 200, "{m}");
+    }
+
+    #[test]
+    fn nested_plugins_are_taken_once() {
+        let t = table("");
+        let mut p = Props::new(&t, &["inner"], vec![("inner", 7)]);
+        assert_eq!(p.take_nested("inner"), Some(7));
+        assert_eq!(p.take_nested("inner"), None);
+    }
+}
