@@ -34,6 +34,22 @@ impl fmt::Display for PropError {
     }
 }
 
+/// A plugin type as the scene files name it: Mitsuba's plugin name, the keys it takes (those whose values are
+/// nested plugins of kind `C` listed again in `nested`, which the scene reader resolves first), and its
+/// constructor, which reads each key with its default and its check. Each role keeps the list of its
+/// types where its values are defined (`crate::bsdf::PLUGINS`, `crate::film::filter::PLUGINS`).
+pub struct Plugin<T, C = ()> {
+    pub name: &'static str,
+    pub keys: &'static [&'static str],
+    pub nested: &'static [&'static str],
+    pub build: fn(Props<'_, C>) -> Result<T, PropError>,
+}
+
+/// The plugin named `name` among `plugins`.
+pub fn find<'p, T, C>(plugins: &[&'p Plugin<T, C>], name: &str) -> Option<&'p Plugin<T, C>> {
+    plugins.iter().copied().find(|p| p.name == name)
+}
+
 /// One plugin's properties: its table (without `type`) and the nested plugins of kind `C` the scene
 /// reader resolved for it (a blend's `bsdf_0`, ...).
 pub struct Props<'a, C> {
@@ -109,6 +125,15 @@ impl<'a, C> Props<'a, C> {
     /// An RGB radiance (each component finite and ≥ 0), or `default` when absent.
     pub fn radiance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(radiance).map_err(|m| PropError::new(key, m)))
+    }
+
+    /// A non-negative integer, or `default` when absent.
+    pub fn u32_or(&self, key: &str, default: u32) -> Result<u32, PropError> {
+        match self.get(key) {
+            None => Ok(default),
+            Some(Value::Integer(i)) => u32::try_from(*i).map_err(|_| PropError::new(key, format!("{i} is not an integer in [0, {}]", u32::MAX))),
+            Some(v) => Err(PropError::new(key, invalid_type(v, "an integer"))),
+        }
     }
 
     /// A string, if given.

@@ -52,7 +52,6 @@ pub use roughconductor::RoughConductor;
 pub use twosided::TwoSided;
 
 use crate::math::{Vec2, Vec3};
-use crate::props::{PropError, Props};
 
 /// What every BSDF type implements, for inputs the dispatch of [`Bsdf`] has checked (`wo` finite and not
 /// in the tangent plane; for the evaluations also `wi`): the conventions of the module documentation.
@@ -75,16 +74,8 @@ pub(crate) trait Model {
     fn transmits(&self) -> bool;
 }
 
-/// A BSDF type as the scene files name it: Mitsuba's plugin name, the keys it takes (those whose values are
-/// nested BSDFs listed again in `nested`, which the scene reader resolves), and its constructor, which
-/// reads each key with its default and its check ([`Props`]). One per BSDF file, listed once in
-/// [`bsdf_types!`]'s invocation below.
-pub(crate) struct Plugin {
-    pub name: &'static str,
-    pub keys: &'static [&'static str],
-    pub nested: &'static [&'static str],
-    pub build: fn(Props<'_, Bsdf>) -> Result<Bsdf, PropError>,
-}
+/// A BSDF type as the scene files name it: its name, keys (nested BSDFs among them) and constructor.
+pub(crate) type Plugin = crate::props::Plugin<Bsdf, Bsdf>;
 
 /// The closed enum of BSDFs, its dispatch to each type's [`Model`] (written once, here) and the list of
 /// their [`Plugin`]s, from one list: `Variant(module::Type)`. A new BSDF type is a file (its type, its
@@ -159,7 +150,7 @@ bsdf_types! {
 /// The plugin of the BSDF type Mitsuba names `name`.
 #[must_use]
 pub(crate) fn plugin(name: &str) -> Option<&'static Plugin> {
-    PLUGINS.iter().copied().find(|p| p.name == name)
+    crate::props::find(PLUGINS, name)
 }
 
 /// The configuration mirrored through the tangent plane.

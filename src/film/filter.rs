@@ -36,6 +36,40 @@
 
 use std::fmt;
 
+use crate::props::{Plugin, PropError, Props};
+
+/// Each filter type as the scene files name it (`rfilter`): its keys, their defaults ([`defaults`]) and
+/// checks ([`PixelFilter::checked`]).
+pub(crate) const PLUGINS: &[&Plugin<PixelFilter>] = &[
+    &Plugin { name: "box", keys: &[], nested: &[], build: |_| Ok(PixelFilter::Box) },
+    &Plugin { name: "tent", keys: &["radius"], nested: &[], build: tent },
+    &Plugin { name: "gaussian", keys: &["stddev"], nested: &[], build: gaussian },
+    &Plugin { name: "mitchell", keys: &["B", "C"], nested: &[], build: mitchell },
+    &Plugin { name: "catmullrom", keys: &[], nested: &[], build: |_| Ok(PixelFilter::CatmullRom) },
+    &Plugin { name: "lanczos", keys: &["lobes"], nested: &[], build: lanczos },
+];
+
+fn tent(p: Props<'_, ()>) -> Result<PixelFilter, PropError> {
+    plugin_checked(PixelFilter::Tent { radius: p.float_or("radius", defaults::TENT_RADIUS)? })
+}
+
+fn gaussian(p: Props<'_, ()>) -> Result<PixelFilter, PropError> {
+    plugin_checked(PixelFilter::Gaussian { stddev: p.float_or("stddev", defaults::GAUSSIAN_STDDEV)? })
+}
+
+fn mitchell(p: Props<'_, ()>) -> Result<PixelFilter, PropError> {
+    plugin_checked(PixelFilter::Mitchell { b: p.float_or("B", defaults::MITCHELL_B)?, c: p.float_or("C", defaults::MITCHELL_C)? })
+}
+
+fn lanczos(p: Props<'_, ()>) -> Result<PixelFilter, PropError> {
+    plugin_checked(PixelFilter::Lanczos { lobes: p.u32_or("lobes", defaults::LANCZOS_LOBES)? })
+}
+
+/// [`PixelFilter::checked`], its error at the parameter's key.
+fn plugin_checked(f: PixelFilter) -> Result<PixelFilter, PropError> {
+    f.checked().map_err(|e| PropError::new(e.parameter, e.message))
+}
+
 /// The default of each filter's parameters (Mitsuba's, read in each plugin's constructor).
 pub mod defaults {
     /// `tent`'s `radius`.

@@ -16,12 +16,12 @@ use std::path::{Path, PathBuf};
 
 use super::delta_light;
 use super::desc::{
-    AreaEmitterType, EmitterDesc, EmitterType, RFilterDesc, RFilterType, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld,
+    AreaEmitterType, EmitterDesc, EmitterType, PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld,
     TransformOp,
 };
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
-use super::plugins::{check_keys, Role};
+use super::plugins::{self, check_keys, Role};
 use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix};
@@ -29,7 +29,7 @@ use super::xml::Places;
 use super::Scene;
 use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError, FovAxis};
-use crate::film::PixelFilter;
+use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
@@ -351,23 +351,9 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
     }
 }
 
-/// `[sensor.film.rfilter]` → the filter: only the type's own parameters, Mitsuba's defaults for those left
-/// out (`film::filter::defaults`), each checked (`PixelFilter::checked`).
-fn rfilter(ctx: &ErrorContext, d: &RFilterDesc) -> Result<PixelFilter, SceneError> {
-    use crate::film::filter::defaults as fd;
-    let key = "sensor.film.rfilter";
-    let name = d.kind.name();
-    let present = [("radius", d.radius.is_some()), ("stddev", d.stddev.is_some()), ("B", d.b.is_some()), ("C", d.c.is_some()), ("lobes", d.lobes.is_some())];
-    check_keys(ctx, key, Role::RFilter, name, &present)?;
-    let filter = match d.kind {
-        RFilterType::Box => PixelFilter::Box,
-        RFilterType::Tent => PixelFilter::Tent { radius: d.radius.unwrap_or(fd::TENT_RADIUS) },
-        RFilterType::Gaussian => PixelFilter::Gaussian { stddev: d.stddev.unwrap_or(fd::GAUSSIAN_STDDEV) },
-        RFilterType::Mitchell => PixelFilter::Mitchell { b: d.b.unwrap_or(fd::MITCHELL_B), c: d.c.unwrap_or(fd::MITCHELL_C) },
-        RFilterType::CatmullRom => PixelFilter::CatmullRom,
-        RFilterType::Lanczos => PixelFilter::Lanczos { lobes: d.lobes.unwrap_or(fd::LANCZOS_LOBES) },
-    };
-    filter.checked().map_err(|e| ctx.key_error(&join_key(key, e.parameter), e.message))
+/// `[sensor.film.rfilter]` → the filter, built by its type's constructor (`film::filter::PLUGINS`).
+fn rfilter(ctx: &ErrorContext, d: &PluginDesc) -> Result<PixelFilter, SceneError> {
+    plugins::build(ctx, "sensor.film.rfilter", Role::RFilter, filter::PLUGINS, d, |_, _| Ok(()))
 }
 
 /// Rejects keys that do not apply to the shape's type.

@@ -25,7 +25,7 @@ pub(crate) struct SceneFile {
     /// Absent: Mitsuba 0.6's default camera, made to see every shape (`build`).
     pub sensor: Option<SensorDesc>,
     #[serde(default)]
-    pub bsdf: BTreeMap<String, BsdfDesc>,
+    pub bsdf: BTreeMap<String, PluginDesc>,
     #[serde(default)]
     pub shape: Vec<ShapeDesc>,
     #[serde(default)]
@@ -105,7 +105,7 @@ pub(crate) struct FilmDesc {
     pub height: u32,
     pub crop: Option<[u32; 4]>,
     /// The pixel reconstruction filter; none: [`crate::film::PixelFilter::default`] (Mitsuba's Gaussian).
-    pub rfilter: Option<RFilterDesc>,
+    pub rfilter: Option<PluginDesc>,
 }
 
 impl Default for FilmDesc {
@@ -120,68 +120,28 @@ impl Default for FilmDesc {
     }
 }
 
-/// `[sensor.film.rfilter]`: Mitsuba's `rfilter` plugin with its parameters (`film::filter`); which
-/// parameters apply to which type, their defaults and ranges are decided in `build`.
-#[derive(Debug, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct RFilterDesc {
-    #[serde(rename = "type")]
-    pub kind: RFilterType,
-    pub radius: Option<f32>,
-    pub stddev: Option<f32>,
-    #[serde(rename = "B")]
-    pub b: Option<f32>,
-    #[serde(rename = "C")]
-    pub c: Option<f32>,
-    pub lobes: Option<u32>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum RFilterType {
-    Box,
-    Tent,
-    Gaussian,
-    Mitchell,
-    CatmullRom,
-    Lanczos,
-}
-
-impl RFilterType {
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            RFilterType::Box => "box",
-            RFilterType::Tent => "tent",
-            RFilterType::Gaussian => "gaussian",
-            RFilterType::Mitchell => "mitchell",
-            RFilterType::CatmullRom => "catmullrom",
-            RFilterType::Lanczos => "lanczos",
-        }
-    }
-}
-
-/// A bsdf table: its `type` and its other keys, which the type's own constructor reads (`crate::bsdf`'s
-/// plugins, through `material`).
+/// A plugin's table (a bsdf, a filter): its `type` and its other keys, which the type's own constructor
+/// reads (`crate::props::Plugin`, found and checked by `plugins::build`).
 #[derive(Debug)]
-pub(crate) struct BsdfDesc {
+pub(crate) struct PluginDesc {
     pub kind: String,
     pub props: toml::Table,
 }
 
-impl BsdfDesc {
+impl PluginDesc {
     /// The table's `type` and the rest of it.
     pub(crate) fn from_table(mut props: toml::Table) -> Result<Self, String> {
         match props.remove("type") {
             Some(toml::Value::String(kind)) => Ok(Self { kind, props }),
-            Some(other) => Err(format!("invalid type: {}, expected the bsdf type's name (a string)", other.type_str())),
+            Some(other) => Err(format!("invalid type: {}, expected the type's name (a string)", other.type_str())),
             None => Err("missing field `type`".into()),
         }
     }
 }
 
-impl<'de> Deserialize<'de> for BsdfDesc {
+impl<'de> Deserialize<'de> for PluginDesc {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        BsdfDesc::from_table(toml::Table::deserialize(deserializer)?).map_err(D::Error::custom)
+        PluginDesc::from_table(toml::Table::deserialize(deserializer)?).map_err(D::Error::custom)
     }
 }
 
@@ -189,7 +149,7 @@ impl<'de> Deserialize<'de> for BsdfDesc {
 #[derive(Debug)]
 pub(crate) enum BsdfRef {
     Name(String),
-    Inline(Box<BsdfDesc>),
+    Inline(Box<PluginDesc>),
 }
 
 impl<'de> Deserialize<'de> for BsdfRef {
@@ -204,7 +164,7 @@ impl<'de> Deserialize<'de> for BsdfRef {
                 Ok(BsdfRef::Name(v.to_string()))
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<BsdfRef, A::Error> {
-                BsdfDesc::deserialize(MapAccessDeserializer::new(map)).map(|d| BsdfRef::Inline(Box::new(d)))
+                PluginDesc::deserialize(MapAccessDeserializer::new(map)).map(|d| BsdfRef::Inline(Box::new(d)))
             }
         }
         deserializer.deserialize_any(V)
@@ -216,7 +176,7 @@ impl BsdfRef {
     pub(crate) fn from_value(value: &toml::Value) -> Result<Self, String> {
         match value {
             toml::Value::String(name) => Ok(BsdfRef::Name(name.clone())),
-            toml::Value::Table(t) => BsdfDesc::from_table(t.clone()).map(|d| BsdfRef::Inline(Box::new(d))),
+            toml::Value::Table(t) => PluginDesc::from_table(t.clone()).map(|d| BsdfRef::Inline(Box::new(d))),
             other => Err(format!("invalid type: {}, expected the name of a [bsdf.<name>] table or an inline bsdf table", other.type_str())),
         }
     }

@@ -11,13 +11,12 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use super::desc::{BsdfDesc, BsdfRef};
+use super::desc::{PluginDesc, BsdfRef};
 use super::error::{ErrorContext, SceneError};
-use super::plugins::{check_given_keys, Role};
+use super::plugins::{self, Role};
 use super::spans::join_key;
 use crate::bsdf::{self, Bsdf, Diffuse};
 use crate::math::Vec3;
-use crate::props::Props;
 
 /// Deepest chain of named bsdfs referring to each other (blends of blends ...).
 const MAX_NESTING: usize = 64;
@@ -32,7 +31,7 @@ pub(crate) const DEFAULT_EMITTER_BSDF: Bsdf = Bsdf::Diffuse(Diffuse { reflectanc
 /// Resolves bsdf references and hands out material indices: one per referenced named bsdf, one per inline
 /// table, and one shared index for the default material.
 pub(crate) struct Materials<'a> {
-    named: &'a BTreeMap<String, BsdfDesc>,
+    named: &'a BTreeMap<String, PluginDesc>,
     resolved: HashMap<String, Bsdf>,
     index_of_name: HashMap<String, u32>,
     default_index: Option<u32>,
@@ -42,7 +41,7 @@ pub(crate) struct Materials<'a> {
 
 impl<'a> Materials<'a> {
     /// Validates every `[bsdf.<name>]` table (used or not).
-    pub(crate) fn new(ctx: &ErrorContext, named: &'a BTreeMap<String, BsdfDesc>) -> Result<Self, SceneError> {
+    pub(crate) fn new(ctx: &ErrorContext, named: &'a BTreeMap<String, PluginDesc>) -> Result<Self, SceneError> {
         let mut m = Self {
             named,
             resolved: HashMap::new(),
@@ -132,21 +131,10 @@ impl<'a> Materials<'a> {
     }
 
     /// The bsdf of table `d` at `key`, built by its type's constructor.
-    fn resolve_desc(&mut self, ctx: &ErrorContext, key: &str, d: &BsdfDesc, stack: &mut Vec<String>) -> Result<Bsdf, SceneError> {
-        let Some(plugin) = bsdf::plugin(&d.kind) else {
-            let names: Vec<&str> = bsdf::PLUGINS.iter().map(|p| p.name).collect();
-            return Err(ctx.key_error(&join_key(key, "type"), format!("unknown bsdf type `{}` (caustica's: {})", d.kind, names.join(", "))));
-        };
-        let given: Vec<&str> = d.props.keys().map(String::as_str).collect();
-        check_given_keys(ctx, key, Role::Bsdf, plugin.name, &given)?;
-        let mut nested = Vec::new();
-        for &k in plugin.nested {
-            if let Some(value) = d.props.get(k) {
-                let at = join_key(key, k);
-                let r = BsdfRef::from_value(value).map_err(|m| ctx.key_error(&at, m))?;
-                nested.push((k, self.resolve_ref(ctx, &at, &r, stack)?));
-            }
-        }
-        (plugin.build)(Props::new(&d.props, plugin.keys, nested)).map_err(|e| ctx.prop_error(key, e))
+    fn resolve_desc(&mut self, ctx: &ErrorContext, key: &str, d: &PluginDesc, stack: &mut Vec<String>) -> Result<Bsdf, SceneError> {
+        plugins::build(ctx, key, Role::Bsdf, bsdf::PLUGINS, d, |at, value| {
+            let r = BsdfRef::from_value(value).map_err(|m| ctx.key_error(at, m))?;
+            self.resolve_ref(ctx, at, &r, stack)
+        })
     }
 }

@@ -1,15 +1,18 @@
 //! The plugin types caustica renders and the keys each takes, behind the key checks of both scene formats
 //! (a key that does not apply to its plugin's type is an error naming the type's keys) and behind the XML
-//! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). BSDF types
-//! are listed by the BSDFs themselves (`crate::bsdf::PLUGINS`: each file its keys, defaults, checks and
-//! constructor); the other roles' types are the rows of `TYPES` here, built in `build` (shapes, emitters)
-//! and `film::filter`.
+//! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). BSDF and
+//! filter types are listed where their values are defined (`crate::bsdf::PLUGINS`: one file per BSDF with
+//! its keys, defaults, checks and constructor; `crate::film::filter::PLUGINS`) and built by [`build`];
+//! shapes and emitters are the rows of `TYPES` here, built in `scene::build`.
 //!
 //! Keys keep Mitsuba's property names, so the same names serve the TOML tables and the XML properties.
 
 use super::error::{ErrorContext, SceneError};
 use super::spans::join_key;
+use super::desc::PluginDesc;
 use crate::bsdf;
+use crate::film::filter;
+use crate::props::{self, Plugin, Props};
 
 /// What kind of plugin a type is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,7 +43,7 @@ impl Role {
     }
 }
 
-/// (role, type, the type's own keys) of the roles other than BSDFs. `area` is the emitter attached to a shape.
+/// (role, type, the type's own keys) of shapes and emitters. `area` is the emitter attached to a shape.
 const TYPES: &[(Role, &str, &[&str])] = &[
     (Role::Shape, "obj", &["filename", "face_normals"]),
     (Role::Shape, "ply", &["filename", "face_normals"]),
@@ -54,18 +57,13 @@ const TYPES: &[(Role, &str, &[&str])] = &[
     (Role::Emitter, "point", &["intensity", "position", "to_world"]),
     (Role::Emitter, "spot", &["intensity", "cutoff_angle", "beam_width", "to_world"]),
     (Role::Emitter, "directional", &["irradiance", "direction", "to_world"]),
-    (Role::RFilter, "box", &[]),
-    (Role::RFilter, "tent", &["radius"]),
-    (Role::RFilter, "gaussian", &["stddev"]),
-    (Role::RFilter, "mitchell", &["B", "C"]),
-    (Role::RFilter, "catmullrom", &[]),
-    (Role::RFilter, "lanczos", &["lobes"]),
 ];
 
 /// Every key type `name` of `role` takes (the role's common keys, then its own); `None` for an unknown type.
 pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
     let own = match role {
         Role::Bsdf => bsdf::plugin(name)?.keys,
+        Role::RFilter => props::find(filter::PLUGINS, name)?.keys,
         _ => TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?.2,
     };
     Some(role.common().iter().chain(own.iter()).copied().collect())
@@ -87,6 +85,33 @@ pub(crate) fn check_given_keys(ctx: &ErrorContext, key: &str, role: Role, name: 
     }
 }
 
+/// Builds the plugin of `role` that table `d` at `key` describes: finds its type among `plugins`, refuses
+/// keys the type does not take, resolves its nested plugins (`resolve(key path, value)`, in the order of
+/// the type's `nested`), runs its constructor and places the constructor's errors at their keys.
+pub(crate) fn build<T, C>(
+    ctx: &ErrorContext,
+    key: &str,
+    role: Role,
+    plugins: &[&Plugin<T, C>],
+    d: &PluginDesc,
+    mut resolve: impl FnMut(&str, &toml::Value) -> Result<C, SceneError>,
+) -> Result<T, SceneError> {
+    let Some(plugin) = props::find(plugins, &d.kind) else {
+        let names: Vec<&str> = plugins.iter().map(|p| p.name).collect();
+        let message = format!("unknown {} type `{}` (caustica's: {})", role.name(), d.kind, names.join(", "));
+        return Err(ctx.key_error(&join_key(key, "type"), message));
+    };
+    let given: Vec<&str> = d.props.keys().map(String::as_str).collect();
+    check_given_keys(ctx, key, role, plugin.name, &given)?;
+    let mut nested = Vec::new();
+    for &k in plugin.nested {
+        if let Some(value) = d.props.get(k) {
+            nested.push((k, resolve(&join_key(key, k), value)?));
+        }
+    }
+    (plugin.build)(Props::new(&d.props, plugin.keys, nested)).map_err(|e| ctx.prop_error(key, e))
+}
+
 /// How every scene reader says that key `key` does not apply to type `kind` of `role` (whose keys are
 /// `allowed`).
 pub(crate) fn not_applicable(key: &str, role: &str, kind: &str, allowed: &[&str]) -> String {
@@ -106,6 +131,7 @@ mod tests {
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals"]);
         assert_eq!(keys(Role::Bsdf, "roughplastic"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
+        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::RFilter).count(), 0, "filters are listed by crate::film::filter");
         assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);
         assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::Bsdf).count(), 0, "BSDF types are listed by crate::bsdf");
     }
