@@ -73,29 +73,14 @@ fn named(name: Option<&str>) -> Result<Option<(Vec3, Vec3)>, PropError> {
 }
 
 impl Model for Conductor {
-    fn f(&self, _: Vec3, _: Vec3, _: TransportMode) -> Vec3 {
-        Vec3::ZERO
-    }
-    fn f_pdf(&self, _: Vec3, _: Vec3, _: TransportMode) -> (Vec3, f32) {
-        (Vec3::ZERO, 0.0)
-    }
-    fn pdf_w(&self, _: Vec3, _: Vec3) -> f32 {
-        0.0
-    }
     #[inline]
     fn sample(&self, wo: Vec3, _: f32, _: Vec2, _: TransportMode) -> Option<BsdfSample> {
         sample(self.specular_reflectance, self.eta_k, wo)
-    }
-    fn chooses_lobe(&self) -> bool {
-        false
     }
     fn has_delta(&self) -> bool {
         true
     }
     fn has_non_delta(&self) -> bool {
-        false
-    }
-    fn transmits(&self) -> bool {
         false
     }
 }

@@ -40,15 +40,6 @@ fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 }
 
 impl Model for Dielectric {
-    fn f(&self, _: Vec3, _: Vec3, _: TransportMode) -> Vec3 {
-        Vec3::ZERO
-    }
-    fn f_pdf(&self, _: Vec3, _: Vec3, _: TransportMode) -> (Vec3, f32) {
-        (Vec3::ZERO, 0.0)
-    }
-    fn pdf_w(&self, _: Vec3, _: Vec3) -> f32 {
-        0.0
-    }
     #[inline]
     fn sample(&self, wo: Vec3, u_lobe: f32, _: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         sample(self.eta, wo, u_lobe, mode)

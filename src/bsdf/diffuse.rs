@@ -46,17 +46,8 @@ impl Model for Diffuse {
     fn sample(&self, wo: Vec3, _: f32, u_dir: Vec2, _: TransportMode) -> Option<BsdfSample> {
         sample(self.reflectance, wo, u_dir)
     }
-    fn chooses_lobe(&self) -> bool {
-        false
-    }
-    fn has_delta(&self) -> bool {
-        false
-    }
     fn has_non_delta(&self) -> bool {
         self.reflectance.max_element() > 0.0
-    }
-    fn transmits(&self) -> bool {
-        false
     }
 }
 

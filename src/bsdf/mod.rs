@@ -17,15 +17,13 @@
 //! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
 //!   `sample → None`. Nothing returns NaN for unit, finite inputs.
 //!
-//! Scene-file snippets these read (parsed by `scene`, Mitsuba 3 names):
-//! ```toml
-//! bsdf = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }
-//! bsdf = { type = "conductor", material = "Au" }              # or material = "none" (perfect mirror)
-//! bsdf = { type = "roughconductor", alpha = 0.2, material = "Cu", distribution = "ggx" }   # default beckmann
-//! bsdf = { type = "twosided", bsdf = { type = "diffuse" } }
-//! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
-//! bsdf = { type = "blendbsdf", weight = 0.3, bsdf_0 = { ... }, bsdf_1 = { ... } }
-//! ```
+//! **One file per BSDF type** (Mitsuba 3's one file per plugin; pbrt-v4's `Create` reading its own
+//! parameters): the type, its [`Model`] (evaluation and sampling) and its `PLUGIN` — Mitsuba's name, the
+//! keys it takes with their defaults and checks, read through [`crate::props::Props`] by its constructor,
+//! and the scene-file snippet in its docs. The types are listed once, in the invocation of
+//! `bsdf_types!` below, which generates the enum, its dispatch and [`PLUGINS`], the list the scene
+//! readers (TOML and XML), `info` and the XML reader's report of unsupported plugins all read. A new BSDF
+//! type is a new file and its line there.
 
 mod at_wo;
 mod blend;
@@ -54,24 +52,41 @@ pub use twosided::TwoSided;
 use crate::math::{Vec2, Vec3};
 
 /// What every BSDF type implements, for inputs the dispatch of [`Bsdf`] has checked (`wo` finite and not
-/// in the tangent plane; for the evaluations also `wi`): the conventions of the module documentation.
+/// in the tangent plane; for the evaluations also `wi`): the conventions of the module documentation. The
+/// defaults are those of a type without the lobe or the property: no non-delta lobe (`f = 0`, `pdf_w = 0`),
+/// no choice between lobes, no delta lobe, no transmission.
 pub(crate) trait Model {
-    /// `f` without the cosine, non-delta lobes only.
-    fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3;
+    /// `f` without the cosine, non-delta lobes only: by default the `f` of [`Model::f_pdf`].
+    #[inline]
+    fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        self.f_pdf(wo, wi, mode).0
+    }
     /// `(f, pdf_w)`, bit-identical to `(f, pdf_w)` computed apart.
-    fn f_pdf(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> (Vec3, f32);
+    #[inline]
+    fn f_pdf(&self, _wo: Vec3, _wi: Vec3, _mode: TransportMode) -> (Vec3, f32) {
+        (Vec3::ZERO, 0.0)
+    }
     /// Solid-angle density of sampling `wi` through the non-delta lobes.
-    fn pdf_w(&self, wo: Vec3, wi: Vec3) -> f32;
+    #[inline]
+    fn pdf_w(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
     /// One sampled direction (see [`Bsdf::sample`]).
     fn sample(&self, wo: Vec3, u_lobe: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample>;
     /// Whether `sample` reads `u_lobe`.
-    fn chooses_lobe(&self) -> bool;
+    fn chooses_lobe(&self) -> bool {
+        false
+    }
     /// Any delta lobe that can be sampled.
-    fn has_delta(&self) -> bool;
+    fn has_delta(&self) -> bool {
+        false
+    }
     /// Any non-delta lobe that can be sampled and reflects something (see [`Bsdf::has_non_delta`]).
     fn has_non_delta(&self) -> bool;
     /// Whether some lobe transmits.
-    fn transmits(&self) -> bool;
+    fn transmits(&self) -> bool {
+        false
+    }
 }
 
 /// A BSDF type as the scene files name it: its name, keys (nested BSDFs among them) and constructor.

@@ -83,17 +83,8 @@ impl Model for RoughConductor {
     fn sample(&self, wo: Vec3, _: f32, u_dir: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         non_delta_sample(self, wo, sample_wi(&self.distribution, wo, u_dir)?, mode)
     }
-    fn chooses_lobe(&self) -> bool {
-        false
-    }
-    fn has_delta(&self) -> bool {
-        false
-    }
     fn has_non_delta(&self) -> bool {
         self.specular_reflectance.max_element() > 0.0
-    }
-    fn transmits(&self) -> bool {
-        false
     }
 }
 
