@@ -25,7 +25,7 @@
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 256, 128] }   # default 768×576; crop optional
 //!
-//! [bsdf.white]                 # named materials, referenced by name (see `material`)
+//! [bsdf.white]                 # named materials, referenced by name; types and keys: `crate::bsdf`, one file each
 //! type = "diffuse"
 //! reflectance = [0.8, 0.8, 0.8]   # or one number (gray)
 //!
