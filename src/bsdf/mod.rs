@@ -34,6 +34,7 @@ mod diffuse;
 mod ior;
 mod microfacet;
 mod roughconductor;
+mod thindielectric;
 mod twosided;
 #[cfg(test)]
 mod tests;
@@ -47,6 +48,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use roughconductor::RoughConductor;
+pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
 use crate::math::{Vec2, Vec3};
@@ -158,6 +160,7 @@ bsdf_types! {
     Conductor(conductor::Conductor),
     RoughConductor(roughconductor::RoughConductor),
     Dielectric(dielectric::Dielectric),
+    ThinDielectric(thindielectric::ThinDielectric),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
 }

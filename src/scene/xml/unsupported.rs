@@ -41,7 +41,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("bsdf", "plastic", "a diffuse base under a smooth dielectric coating", LATER_MATERIALS),
     ("bsdf", "roughplastic", "a diffuse base under a rough dielectric coating", LATER_MATERIALS),
     ("bsdf", "roughdielectric", "rough glass: microfacet reflection and transmission", LATER_MATERIALS),
-    ("bsdf", "thindielectric", "a thin glass sheet: reflection and straight transmission", LATER_MATERIALS),
     ("bsdf", "mask", "an opacity mask cutting holes in the nested BSDF", LATER_MATERIALS),
     ("bsdf", "bumpmap", "the nested BSDF with normals perturbed by a height texture", LATER_MATERIALS),
     ("bsdf", "normalmap", "the nested BSDF with normals from a normal-map texture", LATER_MATERIALS),
