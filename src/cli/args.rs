@@ -143,7 +143,7 @@ pub struct RunArgs {
     #[arg(long, value_parser = resolution)]
     pub height: Option<u32>,
     /// Refuse a render whose film, photon map and mesh need more than this many GB [default: the
-    /// machine's physical memory].
+    /// machine's physical memory, or the cgroup's or address-space limit where smaller].
     #[arg(long, value_name = "GB", value_parser = gigabytes)]
     pub memory_limit: Option<f64>,
 }
@@ -173,14 +173,16 @@ impl RunArgs {
     /// machine's physical memory): [`crate::render::memory`].
     pub fn check_memory(&self, scene: &crate::scene::Scene, settings: &crate::render::RenderSettings) -> anyhow::Result<()> {
         use crate::render::memory::{MemoryEstimate, MemoryLimit};
-        let limit = match self.memory_limit {
-            Some(gb) => Some(MemoryLimit { bytes: (gb * 1e9) as u64, physical: false }),
-            None => MemoryLimit::physical(),
-        };
-        if let Some(limit) = limit {
+        if let Some(limit) = MemoryLimit::process() {
             MemoryEstimate::of(scene, settings).check(limit).map_err(|e| anyhow::anyhow!("{}: {e}", scene.path.display()))?;
         }
         Ok(())
+    }
+
+    /// Makes `--memory-limit` (or the machine's bound) the process's limit, which the mesh readers check
+    /// before they allocate ([`crate::render::memory::check_mesh`]): call before reading any scene.
+    pub fn set_memory_limit(&self) {
+        crate::render::memory::MemoryLimit::set_user(self.memory_limit.map(|gb| (gb * 1e9) as u64));
     }
 
     /// A rayon pool of [`RunArgs::threads`] workers.
