@@ -6,7 +6,7 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -174,10 +174,11 @@ fn crop(s: &str) -> Result<Rect, String> {
 pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
     check_scenes(args)?;
     check_outputs(args)?;
-    let cancel = cancel_on_ctrl_c();
+    args.run.set_memory_limit();
+    let cancel = cancel_on_signals();
     for path in &args.scenes {
-        if render_one(args, path, &cancel)? == Outcome::Interrupted {
-            return Ok(Outcome::Interrupted);
+        if let interrupted @ Outcome::Interrupted { .. } = render_one(args, path, &cancel)? {
+            return Ok(interrupted);
         }
     }
     Ok(Outcome::Done)
@@ -271,7 +272,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     if !args.quiet {
         print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     }
-    Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
+    Ok(outcome(phases.partial))
 }
 
 /// The scene's notes (what was read but not used as written) on stderr: those that change what is rendered
@@ -420,17 +421,51 @@ fn write_part(
     Ok(PartJson { index: p.index, count: p.count, share: PartInfo::share_name(share), fingerprint, passes_rendered: phases.passes_rendered })
 }
 
-/// A flag that the first Ctrl-C sets (the render then stops at the next tile and writes what it has); a
-/// second Ctrl-C while the first is being honoured exits at once with code 130.
-fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+/// The first of SIGINT (Ctrl-C), SIGTERM and SIGHUP received (0: none): the exit code is 128 + it.
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+/// A flag that the first SIGINT (Ctrl-C), SIGTERM or SIGHUP sets: the render then stops at the next tile
+/// (or within a few photons) and writes what it has, marked partial, and the process exits with 128 + the
+/// signal's number (130, 143, 129). Slurm sends SIGTERM at a job's time limit and on `scancel` (then
+/// SIGKILL after its `KillWait`, 30 s by default), so a cut job keeps its work. A second signal while the
+/// first is being honoured exits at once. The signals are received by signal-hook's thread, not in a
+/// handler, so nothing here runs in signal context.
+fn cancel_on_signals() -> Arc<AtomicBool> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     let cancel = Arc::new(AtomicBool::new(false));
     let c = cancel.clone();
-    let _ = ctrlc::set_handler(move || {
-        if c.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
+    match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                for signal in signals.forever() {
+                    let _ = SIGNAL.compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst);
+                    if c.swap(true, Ordering::SeqCst) {
+                        std::process::exit(128 + signal);
+                    }
+                }
+            });
         }
-    });
+        Err(e) => eprintln!("warning: cannot catch SIGINT/SIGTERM/SIGHUP ({e}): a signal will end the render without writing it"),
+    }
     cancel
+}
+
+/// The outcome of a render that `phases` describe: interrupted (by [`SIGNAL`]) when partial.
+fn outcome(partial: bool) -> Outcome {
+    if partial {
+        Outcome::Interrupted { signal: SIGNAL.load(Ordering::SeqCst) }
+    } else {
+        Outcome::Done
+    }
+}
+
+/// The name of the signal that interrupted the render, for the summary.
+fn signal_name(signal: i32) -> &'static str {
+    match signal {
+        signal_hook::consts::SIGTERM => "SIGTERM",
+        signal_hook::consts::SIGHUP => "SIGHUP",
+        _ => "Ctrl-C",
+    }
 }
 
 /// The error against `--reference` after every pass, and the `--error-log` rewritten (atomically) after
@@ -540,7 +575,7 @@ fn print_summary(output: &Path, scene: &Scene, settings: &RenderSettings, phases
         phases.seconds_photons + phases.seconds_kdtree,
         phases.seconds_render,
         stats.rays_per_second * 1e-6,
-        if phases.partial { " [partial: interrupted]" } else { "" }
+        if phases.partial { format!(" [partial: interrupted by {}]", signal_name(SIGNAL.load(Ordering::SeqCst))) } else { String::new() }
     );
     if let Some(last) = pass_log.last() {
         eprintln!("error against the reference after {} passes: {}", last.pass, progress_text(last));
