@@ -63,7 +63,7 @@ pub struct RenderArgs {
     pub estimator: Option<Estimator>,
     #[command(flatten)]
     pub photon: PhotonArgs,
-    /// Write statistics as JSON here.
+    /// Write statistics as JSON here (`-`: standard output).
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// A reference image (OpenEXR, the size of the rendered crop window): after every pass the render is
@@ -228,7 +228,9 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let seconds_setup = t_start.elapsed().as_secs_f64();
 
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
-    let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
+    // (No progress line where the stats JSON goes to standard output.)
+    let stats_to_stdout = args.stats.as_deref().is_some_and(|p| p == Path::new("-") || p == Path::new("/dev/stdout"));
+    let progress = Progress::new(!args.quiet && !stats_to_stdout && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
     let mut film = Film::for_camera(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
@@ -317,9 +319,15 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
         ("--stats", args.stats.as_deref()),
         ("--error-log", args.error_log.as_deref()),
     ];
+    let inputs: Vec<&Path> = args.scenes.iter().map(PathBuf::as_path).chain(args.reference.as_deref()).collect();
     for (flag, path) in outputs {
         if let Some(path) = path {
-            args::check_output(flag, path)?;
+            if flag == "--stats" {
+                args::check_output_or_stdout(flag, path)?;
+            } else {
+                args::check_output(flag, path)?;
+            }
+            args::check_not_input(flag, path, &inputs)?;
         }
     }
     if let Some(o) = &args.output {
