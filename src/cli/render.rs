@@ -225,6 +225,9 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let threads = args.run.threads();
     let pool = args.run.pool()?;
     let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    if !args.quiet {
+        pool.install(|| warn_long_photon_pass(&scene, accel.as_ref(), &settings));
+    }
     let seconds_setup = t_start.elapsed().as_secs_f64();
 
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
@@ -275,6 +278,52 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
         print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     }
     Ok(outcome(phases.partial))
+}
+
+/// Photons traced to time a large photon pass before it starts ([`warn_long_photon_pass`]).
+const PHOTON_PROBE: u64 = 100_000;
+/// A photon pass longer than this many seconds is announced.
+const LONG_PHOTON_PASS: f64 = 120.0;
+
+/// With a photon budget of more than ten times [`PHOTON_PROBE`], times a pass of `PHOTON_PROBE` emitted
+/// photons (the render's first pass's own photons: its first `PHOTON_PROBE`) and, when the budget's pass
+/// would take more than [`LONG_PHOTON_PASS`] at that rate, says how long on stderr before the render
+/// starts (`--photons 1e8` takes minutes per pass without a word otherwise). A `stored` budget is scaled by
+/// the emitted photons the probe needed per stored one. The probe costs at most a tenth of the pass.
+fn warn_long_photon_pass(scene: &Scene, accel: &dyn crate::accel::Accel, settings: &RenderSettings) {
+    let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = settings.photons;
+    if n <= 10 * PHOTON_PROBE || crate::render::photon_pass_needed(scene, settings.estimator).is_err() {
+        return;
+    }
+    let t = Instant::now();
+    let Ok((_, probe)) = crate::photon::trace_photons(scene, accel, PhotonBudget::Emitted(PHOTON_PROBE), settings.seed, 0, &|| false) else { return };
+    let per_photon = t.elapsed().as_secs_f64() / PHOTON_PROBE as f64;
+    let emitted = match settings.photons {
+        PhotonBudget::Emitted(n) => n as f64,
+        PhotonBudget::Stored(m) if probe.stored > 0 => m as f64 * PHOTON_PROBE as f64 / probe.stored as f64,
+        PhotonBudget::Stored(m) => {
+            eprintln!("note: no caustic photon among the first {PHOTON_PROBE} emitted: the photon pass may emit many times its target of {m} stored");
+            return;
+        }
+    };
+    let seconds = emitted * per_photon;
+    if seconds > LONG_PHOTON_PASS {
+        let passes = settings.pass_count().map_or(String::new(), |p| if p > 1 { format!(", {p} passes: about {:.0} min in all", seconds * f64::from(p) / 60.0) } else { String::new() });
+        eprintln!(
+            "note: the photon pass of {} will take about {:.0} min at the rate of its first {PHOTON_PROBE} photons ({:.1} µs each){passes}",
+            describe_photons(settings.photons),
+            seconds / 60.0,
+            per_photon * 1e6,
+        );
+    }
+}
+
+/// `1e+08 photons emitted`, `5000000 caustic photons stored`.
+fn describe_photons(budget: PhotonBudget) -> String {
+    match budget {
+        PhotonBudget::Emitted(n) => format!("{n} photons emitted"),
+        PhotonBudget::Stored(m) => format!("{m} caustic photons stored"),
+    }
 }
 
 /// The scene's notes (what was read but not used as written) on stderr: those that change what is rendered
