@@ -318,7 +318,8 @@ impl<R: BufRead> Data<R> {
         if n == 0 {
             return Err("the file ends before this element".into());
         }
-        if self.line.last() != Some(&b'\n') && n as u64 == cap {
+        // (A last line may end with the data, without a newline.)
+        if self.line.last() != Some(&b'\n') && n as u64 == MAX_ASCII_LINE {
             return Err(format!("a line longer than {MAX_ASCII_LINE} bytes"));
         }
         Ok(())
@@ -520,6 +521,15 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
             bytes.extend_from_slice(&if big_endian { i.to_be_bytes() } else { i.to_le_bytes() });
         }
         bytes
+    }
+
+    #[test]
+    fn ascii_without_a_last_newline() {
+        let text = ASCII.trim_end_matches('\n');
+        assert_eq!(read(text.as_bytes()).unwrap().indices.len(), 3);
+        // The same within a file's bound: the data ends where the last line does.
+        let bound = DataBound { bytes: text.len() as u64, inflated: false };
+        assert_eq!(read_ply_within(Cursor::new(text.as_bytes()), Path::new("t.ply"), bound).unwrap().indices.len(), 3);
     }
 
     #[test]
