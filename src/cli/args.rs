@@ -143,7 +143,7 @@ pub struct RunArgs {
     #[arg(long, value_parser = resolution)]
     pub height: Option<u32>,
     /// Refuse a render whose film, photon map and mesh need more than this many GB [default: the
-    /// machine's physical memory].
+    /// machine's physical memory, or the cgroup's or address-space limit where smaller].
     #[arg(long, value_name = "GB", value_parser = gigabytes)]
     pub memory_limit: Option<f64>,
 }
@@ -173,14 +173,16 @@ impl RunArgs {
     /// machine's physical memory): [`crate::render::memory`].
     pub fn check_memory(&self, scene: &crate::scene::Scene, settings: &crate::render::RenderSettings) -> anyhow::Result<()> {
         use crate::render::memory::{MemoryEstimate, MemoryLimit};
-        let limit = match self.memory_limit {
-            Some(gb) => Some(MemoryLimit { bytes: (gb * 1e9) as u64, physical: false }),
-            None => MemoryLimit::physical(),
-        };
-        if let Some(limit) = limit {
+        if let Some(limit) = MemoryLimit::process() {
             MemoryEstimate::of(scene, settings).check(limit).map_err(|e| anyhow::anyhow!("{}: {e}", scene.path.display()))?;
         }
         Ok(())
+    }
+
+    /// Makes `--memory-limit` (or the machine's bound) the process's limit, which the mesh readers check
+    /// before they allocate ([`crate::render::memory::check_mesh`]): call before reading any scene.
+    pub fn set_memory_limit(&self) {
+        crate::render::memory::MemoryLimit::set_user(self.memory_limit.map(|gb| (gb * 1e9) as u64));
     }
 
     /// A rayon pool of [`RunArgs::threads`] workers.
@@ -218,9 +220,18 @@ pub struct PngArgs {
 }
 
 /// Checks that an output file can be written before anything slow happens: a file name whose directory
-/// exists and that is not a directory itself.
+/// exists and that is not a directory itself, or an existing stream (a FIFO or character device such as
+/// `/dev/stdout`, written through: `film::io::OutputTarget`). `-` (standard output) is refused here: only
+/// the flags that take it check with [`check_output_or_stdout`].
 pub fn check_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    use crate::film::io::OutputTarget;
     use anyhow::bail;
+    match OutputTarget::of(path) {
+        Ok(OutputTarget::Stdout) => bail!("{flag} -: standard output takes only the JSON of --stats or --json; name a file (./- for a file named -)"),
+        Ok(OutputTarget::Stream) => return Ok(()),
+        Ok(OutputTarget::File(_)) => {}
+        Err(e) => bail!("{flag} {}: {e}", path.display()),
+    }
     if path.file_name().is_none() {
         bail!("{flag} {}: not a file name", path.display());
     }
@@ -235,6 +246,38 @@ pub fn check_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
         bail!("{flag} {}: is a directory", path.display());
     }
     check_writable(flag, path, dir)
+}
+
+/// [`check_output`] for a flag that takes `-` for standard output (`--stats`, `--json`).
+pub fn check_output_or_stdout(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    if path == std::path::Path::new("-") {
+        return Ok(());
+    }
+    check_output(flag, path)
+}
+
+/// Refuses an output that is one of the command's inputs (the same file under any name: same device and
+/// inode, or the same canonical path), which writing it would destroy.
+pub fn check_not_input(flag: &str, output: &std::path::Path, inputs: &[&std::path::Path]) -> anyhow::Result<()> {
+    let Ok(out) = std::fs::metadata(output) else { return Ok(()) };
+    for input in inputs {
+        let Ok(inp) = std::fs::metadata(input) else { continue };
+        if same_file(&out, &inp) || std::fs::canonicalize(output).ok() == std::fs::canonicalize(input).ok() {
+            anyhow::bail!("{flag} {}: is the input {}, which writing it would overwrite", output.display(), input.display());
+        }
+    }
+    Ok(())
+}
+
+#[cfg(unix)]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    a.dev() == b.dev() && a.ino() == b.ino()
+}
+
+#[cfg(not(unix))]
+fn same_file(_a: &std::fs::Metadata, _b: &std::fs::Metadata) -> bool {
+    false
 }
 
 /// Whether `dir` accepts a new file: one is created and removed (a read-only directory must be found before

@@ -21,18 +21,30 @@ pub struct CompareArgs {
     /// Block size in pixels for the block-mean RMSE.
     #[arg(long, default_value_t = 16)]
     pub block: u32,
-    /// Also write the metrics as JSON to this file.
+    /// Also write the metrics as JSON to this file (`-`: standard output, instead of the table).
     #[arg(long)]
     pub json: Option<PathBuf>,
 }
 
-/// Reads both images, computes the metrics, prints the table, and writes the JSON if asked.
+/// Reads both images, computes the metrics, prints the table (on standard error with `--json -`), and
+/// writes the JSON if asked.
 pub fn run(args: &CompareArgs) -> anyhow::Result<Outcome> {
+    if let Some(path) = &args.json {
+        super::args::check_output_or_stdout("--json", path)?;
+        super::args::check_not_input("--json", path, &[&args.image, &args.reference])?;
+    }
     let report = evaluate(&args.image, &args.reference, &args.regions, args.block)?;
-    print!("{}", format_table(&report));
+    let to_stdout = args.json.as_deref() == Some(std::path::Path::new("-"));
+    if to_stdout {
+        eprint!("{}", format_table(&report));
+    } else {
+        print!("{}", format_table(&report));
+    }
     if let Some(path) = &args.json {
         write_json_atomic(path, &report)?;
-        println!("wrote {}", path.display());
+        if !to_stdout {
+            println!("wrote {}", path.display());
+        }
     }
     Ok(Outcome::Done)
 }

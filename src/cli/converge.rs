@@ -121,6 +121,7 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
 
 /// Runs `caustica converge`.
 pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
+    args.run.set_memory_limit();
     // The estimators are the command line's: an integrator caustica does not have is replaced.
     let mut scene = Scene::load_with(&args.scene, &LoadOptions { params: args.params.map(), replace_integrator: true })?;
     args.run.set_resolution(&mut scene)?;

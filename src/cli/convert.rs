@@ -1,7 +1,6 @@
 //! `caustica convert IN -o OUT`: a scene from Mitsuba 3 XML to TOML or back, the formats given by the
 //! file names (`.xml`, `.toml`). The converter is the library's (`scene::convert_scene`).
 
-use std::io::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context as _};

@@ -25,7 +25,7 @@ pub struct MergeArgs {
     pub png: Option<PathBuf>,
     #[command(flatten)]
     pub png_args: PngArgs,
-    /// Write the merge's statistics (parts, missing parts, summed work) as JSON here.
+    /// Write the merge's statistics (parts, missing parts, summed work) as JSON here (`-`: standard output).
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// Merge even if some parts are missing (the image then has fewer samples, or black tiles); the
@@ -40,9 +40,15 @@ pub struct MergeArgs {
 /// Runs `caustica merge`.
 pub fn run(args: &MergeArgs) -> anyhow::Result<Outcome> {
     let t = std::time::Instant::now();
+    let inputs: Vec<&std::path::Path> = args.parts.iter().map(PathBuf::as_path).collect();
     for (flag, path) in [("-o/--output", Some(args.output.as_path())), ("--png", args.png.as_deref()), ("--stats", args.stats.as_deref())] {
         if let Some(path) = path {
-            args::check_output(flag, path)?;
+            if flag == "--stats" {
+                args::check_output_or_stdout(flag, path)?;
+            } else {
+                args::check_output(flag, path)?;
+            }
+            args::check_not_input(flag, path, &inputs)?;
         }
     }
     args::check_image_extension("-o/--output", &args.output, "exr", "")?;

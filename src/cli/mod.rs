@@ -57,8 +57,9 @@ enum Command {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
     Done,
-    /// Interrupted by Ctrl-C after writing what was finished (exit code 130).
-    Interrupted,
+    /// Interrupted by a signal (SIGINT: Ctrl-C, SIGTERM, SIGHUP) after writing what was finished: exit code
+    /// 128 + `signal` (130, 143, 129).
+    Interrupted { signal: i32 },
 }
 
 /// Parses the command line. Every option that takes a value accepts a leading `-` as the start of a
@@ -73,7 +74,8 @@ fn parse_cli() -> Cli {
 }
 
 /// The whole program: parse, dispatch, report. Exit codes: 0 done, 2 error (bad input or a failure,
-/// with the message on stderr), 130 interrupted by Ctrl-C.
+/// with the message on stderr), 128 + the signal after a render interrupted by SIGINT (130: Ctrl-C),
+/// SIGTERM (143) or SIGHUP (129).
 #[must_use]
 pub fn main() -> ExitCode {
     let cli = parse_cli();
@@ -88,7 +90,7 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(Outcome::Done) => ExitCode::SUCCESS,
-        Ok(Outcome::Interrupted) => ExitCode::from(130),
+        Ok(Outcome::Interrupted { signal }) => ExitCode::from(u8::try_from(128 + signal).unwrap_or(130)),
         Err(err) => {
             eprintln!("error: {}", error_chain(&err));
             ExitCode::from(2)

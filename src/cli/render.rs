@@ -6,7 +6,7 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -63,7 +63,7 @@ pub struct RenderArgs {
     pub estimator: Option<Estimator>,
     #[command(flatten)]
     pub photon: PhotonArgs,
-    /// Write statistics as JSON here.
+    /// Write statistics as JSON here (`-`: standard output).
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// A reference image (OpenEXR, the size of the rendered crop window): after every pass the render is
@@ -174,10 +174,11 @@ fn crop(s: &str) -> Result<Rect, String> {
 pub fn run(args: &RenderArgs) -> anyhow::Result<Outcome> {
     check_scenes(args)?;
     check_outputs(args)?;
-    let cancel = cancel_on_ctrl_c();
+    args.run.set_memory_limit();
+    let cancel = cancel_on_signals();
     for path in &args.scenes {
-        if render_one(args, path, &cancel)? == Outcome::Interrupted {
-            return Ok(Outcome::Interrupted);
+        if let interrupted @ Outcome::Interrupted { .. } = render_one(args, path, &cancel)? {
+            return Ok(interrupted);
         }
     }
     Ok(Outcome::Done)
@@ -224,10 +225,15 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let threads = args.run.threads();
     let pool = args.run.pool()?;
     let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    if !args.quiet {
+        pool.install(|| warn_long_photon_pass(&scene, accel.as_ref(), &settings));
+    }
     let seconds_setup = t_start.elapsed().as_secs_f64();
 
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
-    let progress = Progress::new(!args.quiet && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
+    // (No progress line where the stats JSON goes to standard output.)
+    let stats_to_stdout = args.stats.as_deref().is_some_and(|p| p == Path::new("-") || p == Path::new("/dev/stdout"));
+    let progress = Progress::new(!args.quiet && !stats_to_stdout && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
     let mut film = Film::for_camera(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
@@ -271,7 +277,53 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     if !args.quiet {
         print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     }
-    Ok(if phases.partial { Outcome::Interrupted } else { Outcome::Done })
+    Ok(outcome(phases.partial))
+}
+
+/// Photons traced to time a large photon pass before it starts ([`warn_long_photon_pass`]).
+const PHOTON_PROBE: u64 = 100_000;
+/// A photon pass longer than this many seconds is announced.
+const LONG_PHOTON_PASS: f64 = 120.0;
+
+/// With a photon budget of more than ten times [`PHOTON_PROBE`], times a pass of `PHOTON_PROBE` emitted
+/// photons (the render's first pass's own photons: its first `PHOTON_PROBE`) and, when the budget's pass
+/// would take more than [`LONG_PHOTON_PASS`] at that rate, says how long on stderr before the render
+/// starts (`--photons 1e8` takes minutes per pass without a word otherwise). A `stored` budget is scaled by
+/// the emitted photons the probe needed per stored one. The probe costs at most a tenth of the pass.
+fn warn_long_photon_pass(scene: &Scene, accel: &dyn crate::accel::Accel, settings: &RenderSettings) {
+    let (PhotonBudget::Emitted(n) | PhotonBudget::Stored(n)) = settings.photons;
+    if n <= 10 * PHOTON_PROBE || crate::render::photon_pass_needed(scene, settings.estimator).is_err() {
+        return;
+    }
+    let t = Instant::now();
+    let Ok((_, probe)) = crate::photon::trace_photons(scene, accel, PhotonBudget::Emitted(PHOTON_PROBE), settings.seed, 0, &|| false) else { return };
+    let per_photon = t.elapsed().as_secs_f64() / PHOTON_PROBE as f64;
+    let emitted = match settings.photons {
+        PhotonBudget::Emitted(n) => n as f64,
+        PhotonBudget::Stored(m) if probe.stored > 0 => m as f64 * PHOTON_PROBE as f64 / probe.stored as f64,
+        PhotonBudget::Stored(m) => {
+            eprintln!("note: no caustic photon among the first {PHOTON_PROBE} emitted: the photon pass may emit many times its target of {m} stored");
+            return;
+        }
+    };
+    let seconds = emitted * per_photon;
+    if seconds > LONG_PHOTON_PASS {
+        let passes = settings.pass_count().map_or(String::new(), |p| if p > 1 { format!(", {p} passes: about {:.0} min in all", seconds * f64::from(p) / 60.0) } else { String::new() });
+        eprintln!(
+            "note: the photon pass of {} will take about {:.0} min at the rate of its first {PHOTON_PROBE} photons ({:.1} µs each){passes}",
+            describe_photons(settings.photons),
+            seconds / 60.0,
+            per_photon * 1e6,
+        );
+    }
+}
+
+/// `1e+08 photons emitted`, `5000000 caustic photons stored`.
+fn describe_photons(budget: PhotonBudget) -> String {
+    match budget {
+        PhotonBudget::Emitted(n) => format!("{n} photons emitted"),
+        PhotonBudget::Stored(m) => format!("{m} caustic photons stored"),
+    }
 }
 
 /// The scene's notes (what was read but not used as written) on stderr: those that change what is rendered
@@ -316,9 +368,15 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
         ("--stats", args.stats.as_deref()),
         ("--error-log", args.error_log.as_deref()),
     ];
+    let inputs: Vec<&Path> = args.scenes.iter().map(PathBuf::as_path).chain(args.reference.as_deref()).collect();
     for (flag, path) in outputs {
         if let Some(path) = path {
-            args::check_output(flag, path)?;
+            if flag == "--stats" {
+                args::check_output_or_stdout(flag, path)?;
+            } else {
+                args::check_output(flag, path)?;
+            }
+            args::check_not_input(flag, path, &inputs)?;
         }
     }
     if let Some(o) = &args.output {
@@ -420,17 +478,51 @@ fn write_part(
     Ok(PartJson { index: p.index, count: p.count, share: PartInfo::share_name(share), fingerprint, passes_rendered: phases.passes_rendered })
 }
 
-/// A flag that the first Ctrl-C sets (the render then stops at the next tile and writes what it has); a
-/// second Ctrl-C while the first is being honoured exits at once with code 130.
-fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+/// The first of SIGINT (Ctrl-C), SIGTERM and SIGHUP received (0: none): the exit code is 128 + it.
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+/// A flag that the first SIGINT (Ctrl-C), SIGTERM or SIGHUP sets: the render then stops at the next tile
+/// (or within a few photons) and writes what it has, marked partial, and the process exits with 128 + the
+/// signal's number (130, 143, 129). Slurm sends SIGTERM at a job's time limit and on `scancel` (then
+/// SIGKILL after its `KillWait`, 30 s by default), so a cut job keeps its work. A second signal while the
+/// first is being honoured exits at once. The signals are received by signal-hook's thread, not in a
+/// handler, so nothing here runs in signal context.
+fn cancel_on_signals() -> Arc<AtomicBool> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     let cancel = Arc::new(AtomicBool::new(false));
     let c = cancel.clone();
-    let _ = ctrlc::set_handler(move || {
-        if c.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
+    match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                for signal in signals.forever() {
+                    let _ = SIGNAL.compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst);
+                    if c.swap(true, Ordering::SeqCst) {
+                        std::process::exit(128 + signal);
+                    }
+                }
+            });
         }
-    });
+        Err(e) => eprintln!("warning: cannot catch SIGINT/SIGTERM/SIGHUP ({e}): a signal will end the render without writing it"),
+    }
     cancel
+}
+
+/// The outcome of a render that `phases` describe: interrupted (by [`SIGNAL`]) when partial.
+fn outcome(partial: bool) -> Outcome {
+    if partial {
+        Outcome::Interrupted { signal: SIGNAL.load(Ordering::SeqCst) }
+    } else {
+        Outcome::Done
+    }
+}
+
+/// The name of the signal that interrupted the render, for the summary.
+fn signal_name(signal: i32) -> &'static str {
+    match signal {
+        signal_hook::consts::SIGTERM => "SIGTERM",
+        signal_hook::consts::SIGHUP => "SIGHUP",
+        _ => "Ctrl-C",
+    }
 }
 
 /// The error against `--reference` after every pass, and the `--error-log` rewritten (atomically) after
@@ -540,7 +632,7 @@ fn print_summary(output: &Path, scene: &Scene, settings: &RenderSettings, phases
         phases.seconds_photons + phases.seconds_kdtree,
         phases.seconds_render,
         stats.rays_per_second * 1e-6,
-        if phases.partial { " [partial: interrupted]" } else { "" }
+        if phases.partial { format!(" [partial: interrupted by {}]", signal_name(SIGNAL.load(Ordering::SeqCst))) } else { String::new() }
     );
     if let Some(last) = pass_log.last() {
         eprintln!("error against the reference after {} passes: {}", last.pass, progress_text(last));

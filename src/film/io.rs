@@ -1,8 +1,13 @@
 //! Reading and writing [`Image`]s: OpenEXR (float32 RGB, ZIP compression, lossless) and 8-bit sRGB PNG.
 //!
-//! Every write is atomic ([`write_atomic`]): the bytes go to `<dir>/.<name>.tmp-<pid>` in the target's
-//! directory, are flushed and fsynced, then renamed over the target. On any error the temporary file is
-//! removed, so a reader never sees a half-written image and no debris is left behind.
+//! Every write to a file is atomic ([`write_atomic`]): the bytes go to `<dir>/.<name>.tmp-<pid>` in the
+//! target's directory, are flushed and fsynced, then renamed over the target. On any error the temporary
+//! file is removed, so a reader never sees a half-written image and no debris is left behind.
+//!
+//! Only a regular file (or a new path) is replaced so ([`OutputTarget`]): a symbolic link to a file has its
+//! target replaced (the link stays); a FIFO, character device or socket (`/dev/stdout`, `/dev/null`, a pipe
+//! under `/proc/self/fd`) is written through, once, whole; `-` is standard output; anything else (a block
+//! device, a directory, a link to nothing) is refused.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -121,13 +126,93 @@ pub fn temp_path_for(path: &Path) -> Option<PathBuf> {
     Some(path.with_file_name(tmp_name))
 }
 
+/// A writer that can also seek (the EXR encoder needs both): a buffered file, or a buffer in memory.
+pub trait WriteSeek: Write + io::Seek {}
+impl<T: Write + io::Seek> WriteSeek for T {}
+
+/// What writing to an output path does (module docs).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum OutputTarget {
+    /// A regular file or a new path, replaced atomically: the path itself, or a symbolic link's final target.
+    File(PathBuf),
+    /// A FIFO, character device or socket (or a link to one, or a link under `/dev` or `/proc`: the
+    /// process's own streams), written through.
+    Stream,
+    /// `-`: standard output.
+    Stdout,
+}
+
+impl OutputTarget {
+    /// What writing to `path` does, or why it cannot be written.
+    pub fn of(path: &Path) -> io::Result<Self> {
+        if path == Path::new("-") {
+            return Ok(Self::Stdout);
+        }
+        let refuse = |what: &str| io::Error::new(io::ErrorKind::InvalidInput, format!("is {what}: neither a file nor a stream to write to"));
+        let link = match std::fs::symlink_metadata(path) {
+            Ok(m) => m,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Self::File(path.to_path_buf())),
+            Err(e) => return Err(e),
+        };
+        let meta = if link.file_type().is_symlink() {
+            std::fs::metadata(path).map_err(|e| match e.kind() {
+                io::ErrorKind::NotFound => refuse("a symbolic link to nothing"),
+                _ => e,
+            })?
+        } else {
+            link.clone()
+        };
+        let own_stream = link.file_type().is_symlink() && (path.starts_with("/dev") || path.starts_with("/proc"));
+        if meta.is_file() && !own_stream {
+            return Ok(Self::File(if link.file_type().is_symlink() { std::fs::canonicalize(path)? } else { path.to_path_buf() }));
+        }
+        if meta.is_file() || is_stream(&meta) {
+            return Ok(Self::Stream);
+        }
+        Err(refuse(if meta.is_dir() { "a directory" } else { "a block device or another special file" }))
+    }
+}
+
+/// A FIFO, character device or socket.
+#[cfg(unix)]
+fn is_stream(meta: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    t.is_fifo() || t.is_char_device() || t.is_socket()
+}
+
+#[cfg(not(unix))]
+fn is_stream(_meta: &std::fs::Metadata) -> bool {
+    false
+}
+
 /// Writes a file atomically: `write` fills a buffered temporary file next to `path`
 /// (see [`temp_path_for`]), which is flushed, fsynced and renamed over `path`. On any error the temporary
 /// file is removed and the error returned; `path` is then untouched. After the rename the directory is
 /// fsynced too (best effort: some file systems refuse to fsync a directory, which is not an error here).
+/// A stream or `-` ([`OutputTarget`]) gets the bytes `write` makes in memory, written through once.
 ///
 /// Two writers of the same path in one process must not run at the same time (they share the temp name).
-pub fn write_atomic<E: From<io::Error>>(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>) -> Result<(), E> {
+pub fn write_atomic<E: From<io::Error>>(path: &Path, write: impl FnOnce(&mut dyn WriteSeek) -> Result<(), E>) -> Result<(), E> {
+    let path = match OutputTarget::of(path)? {
+        OutputTarget::File(target) => target,
+        stream => {
+            let mut buffer = io::Cursor::new(Vec::new());
+            write(&mut buffer)?;
+            let bytes = buffer.into_inner();
+            if stream == OutputTarget::Stdout {
+                let mut out = io::stdout().lock();
+                out.write_all(&bytes)?;
+                out.flush()?;
+            } else {
+                // Appending: a stream has no start to write at, and a file behind `/dev/stdout` (a shell's `>>`)
+                // keeps what it holds.
+                std::fs::OpenOptions::new().append(true).open(path)?.write_all(&bytes)?;
+            }
+            return Ok(());
+        }
+    };
+    let path = path.as_path();
     let tmp = temp_path_for(path).ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path has no file name"))?;
     let file = File::create(&tmp)?;
     let result = (|| {
@@ -284,7 +369,7 @@ pub fn write_png(path: impl AsRef<Path>, image: &Image, exposure_stops: f32, ton
 /// Writes `bytes` to `path` atomically (used for JSON reports and the like).
 pub fn write_bytes_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), ImageError> {
     let path = path.as_ref();
-    write_atomic(path, |w: &mut BufWriter<File>| w.write_all(bytes)).map_err(|source| ImageError::Io {
+    write_atomic(path, |w: &mut dyn WriteSeek| w.write_all(bytes)).map_err(|source| ImageError::Io {
         path: path.to_owned(),
         source,
     })
@@ -328,6 +413,36 @@ mod tests {
             display_rgb8(Vec3::new(f32::NAN, f32::INFINITY, -2.0), 0.0, Tonemap::Clamp),
             [0, 255, 0]
         );
+    }
+
+    #[test]
+    fn output_targets_replace_only_files() {
+        let dir = std::env::temp_dir().join(format!("caustica-output-targets-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("a.json");
+        assert_eq!(OutputTarget::of(&file).unwrap(), OutputTarget::File(file.clone()));
+        std::fs::write(&file, "x").unwrap();
+        assert_eq!(OutputTarget::of(&file).unwrap(), OutputTarget::File(file.clone()));
+        assert_eq!(OutputTarget::of(Path::new("-")).unwrap(), OutputTarget::Stdout);
+        assert!(OutputTarget::of(&dir).is_err());
+        #[cfg(unix)]
+        {
+            let link = dir.join("link.json");
+            std::os::unix::fs::symlink(&file, &link).unwrap();
+            // The link's target is replaced, the link stays.
+            assert_eq!(OutputTarget::of(&link).unwrap(), OutputTarget::File(std::fs::canonicalize(&file).unwrap()));
+            write_bytes_atomic(&link, b"new").unwrap();
+            assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+            assert_eq!(std::fs::read(&file).unwrap(), b"new");
+            let dangling = dir.join("dangling.json");
+            std::os::unix::fs::symlink(dir.join("nothing"), &dangling).unwrap();
+            assert!(OutputTarget::of(&dangling).is_err());
+            assert_eq!(OutputTarget::of(Path::new("/dev/null")).unwrap(), OutputTarget::Stream);
+            write_bytes_atomic("/dev/null", b"gone").unwrap();
+            // Written through: still the device.
+            assert!(std::os::unix::fs::FileTypeExt::is_char_device(&std::fs::metadata("/dev/null").unwrap().file_type()));
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -7,12 +7,21 @@
 //! [`load_mesh`] picks the reader from the file name (`.obj`, `.ply`, `.ply.gz`, `.serialized`: its first
 //! shape; any case) and checks what every backend relies on: finite coordinates and indices in range.
 //! Errors name the file. A serialized file's other shapes: [`serialized::load_serialized`].
+//!
+//! **Hostile files.** A mesh file must be a regular file ([`open_regular`]: not a device, FIFO or
+//! directory), read no further than its size. Each reader knows the mesh's size before it allocates its
+//! arrays (the PLY and serialized headers' counts, a count of an OBJ file's lines) and refuses a file whose
+//! header promises more data than the file can hold (compressed data: at most [`MAX_INFLATE_RATIO`] times
+//! its size) or a mesh larger than the memory left (`render::memory::check_mesh`, the render's one memory
+//! limit); the arrays are then reserved with `try_reserve`, so an allocation that fails is an error, never
+//! an abort.
 
 pub mod obj;
 pub mod ply;
 pub mod serialized;
 pub mod shapes;
 
+use std::fs::File;
 use std::path::Path;
 
 use crate::error::MeshError;
@@ -64,6 +73,38 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
     };
     mesh.validate(path)?;
     Ok(mesh)
+}
+
+/// The most bytes one byte of a deflate stream (gzip, zlib) can inflate to: a 258-byte match in as little
+/// as two bits, 1032:1 (zlib's FAQ, "What's the maximum compression ratio?"). A compressed file cannot hold
+/// more data than this many times its size.
+pub const MAX_INFLATE_RATIO: u64 = 1032;
+
+/// Opens the mesh file at `path` if it is a regular file, with its size in bytes: a device (`/dev/zero`),
+/// FIFO or directory is refused before it is opened (opening a FIFO would wait for a writer).
+pub fn open_regular(path: &Path) -> Result<(File, u64), MeshError> {
+    let io = |error| MeshError::Io { path: path.to_path_buf(), error };
+    let not_regular = || MeshError::Parse {
+        path: path.to_path_buf(),
+        message: "not a regular file (a device, FIFO, socket or directory); a mesh must be a file".into(),
+    };
+    if !std::fs::metadata(path).map_err(io)?.is_file() {
+        return Err(not_regular());
+    }
+    let file = File::open(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    if !meta.is_file() {
+        return Err(not_regular());
+    }
+    Ok((file, meta.len()))
+}
+
+/// An empty vector with room for `n` elements, or the error `what` (the reserve failed: no abort).
+pub(crate) fn reserved<T>(n: u64, what: &str) -> Result<Vec<T>, String> {
+    let mut v = Vec::new();
+    let n = usize::try_from(n).map_err(|_| format!("{n} {what} do not fit in this machine's address space"))?;
+    v.try_reserve_exact(n).map_err(|_| format!("cannot allocate {n} {what}: out of memory"))?;
+    Ok(v)
 }
 
 /// An indexed triangle mesh.

@@ -4,9 +4,13 @@
 //! (`single_index`), so the result is directly a [`TriangleMesh`]. All objects and groups in the file
 //! are merged into one mesh. Normals (uvs) are kept only if every vertex of every object has one;
 //! materials (`mtllib`/`usemtl`) are ignored here: the scene file assigns materials.
+//!
+//! OBJ has no header: the file (a regular file, read no further than its size) is read into memory, its
+//! `f` lines' corners counted, and the mesh they can make (at most one vertex per corner, a fan's
+//! triangles per face) checked against the memory left (`render::memory::check_mesh`, with the text and
+//! tobj's own arrays besides) before tobj parses it.
 
-use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use super::TriangleMesh;
@@ -15,11 +19,31 @@ use crate::math::{Vec2, Vec3};
 
 /// Reads an OBJ file into one triangle mesh (not yet validated; [`super::load_mesh`] validates).
 pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|error| MeshError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
-    read_obj(&mut BufReader::new(file), path)
+    let (file, len) = super::open_regular(path)?;
+    let parse_error = |message: String| MeshError::Parse { path: path.to_path_buf(), message: format!("OBJ: {message}") };
+    let mut text: Vec<u8> = super::reserved(len, "bytes of text").map_err(parse_error)?;
+    file.take(len).read_to_end(&mut text).map_err(|error| MeshError::Io { path: path.to_path_buf(), error })?;
+    let (corners, triangles) = count_faces(&text);
+    // tobj's arrays: a position, normal and uv per vertex, an index per corner, besides the text.
+    let tobj_bytes = corners.saturating_mul(4 * (3 + 3 + 2 + 1));
+    crate::render::memory::check_mesh(corners, triangles, true, true, (text.len() as u64).saturating_add(tobj_bytes)).map_err(parse_error)?;
+    read_obj(&mut std::io::Cursor::new(text), path)
+}
+
+/// The corners of an OBJ text's faces (`f` lines) and the triangles their fans make.
+fn count_faces(text: &[u8]) -> (u64, u64) {
+    let (mut corners, mut triangles) = (0u64, 0u64);
+    for line in text.split(|&b| b == b'\n') {
+        let line = line.trim_ascii_start();
+        if let Some(rest) = line.strip_prefix(b"f") {
+            if rest.first().is_some_and(u8::is_ascii_whitespace) {
+                let n = rest.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty()).count() as u64;
+                corners += n;
+                triangles += n.saturating_sub(2);
+            }
+        }
+    }
+    (corners, triangles)
 }
 
 /// Reads OBJ text from `reader`; `path` only names the source in errors.
@@ -65,12 +89,13 @@ pub fn read_obj<R: BufRead>(reader: &mut R, path: &Path) -> Result<TriangleMesh,
         let normals = (m.normals.len() == 3 * vertex_count).then(|| m.normals.chunks_exact(3).map(Vec3::from_slice).collect());
         let uvs = (m.texcoords.len() == 2 * vertex_count).then(|| m.texcoords.chunks_exact(2).map(Vec2::from_slice).collect());
         let indices = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        mesh.append(&TriangleMesh {
-            positions,
-            indices,
-            normals,
-            uvs,
-        });
+        let part = TriangleMesh { positions, indices, normals, uvs };
+        // The first object is moved, not copied (what `append` to an empty mesh would make).
+        if mesh.positions.is_empty() {
+            mesh = part;
+        } else {
+            mesh.append(&part);
+        }
     }
     Ok(mesh)
 }
@@ -122,6 +147,11 @@ mod tests {
         assert_eq!(mesh.positions.len(), 6);
         assert!(mesh.normals.is_none());
         assert_eq!(mesh.triangle(1)[0], Vec3::new(0.0, 0.0, 1.0));
+    }
+
+    #[test]
+    fn faces_are_counted_before_parsing() {
+        assert_eq!(count_faces(b"v 0 0 0\nf 1 2 3 4\n  f\t1/1 2/2 3/3\nfo 1 2 3\n# f 1 2 3\nf 1 2\n"), (9, 3));
     }
 
     #[test]

@@ -15,39 +15,61 @@
 //!
 //! [`write_ply`] writes the same subset (binary little endian: positions, normals and uvs if present,
 //! `uchar`/`int` index lists), e.g. so that another renderer can load exactly our triangles.
+//!
+//! The header is read by ply-rs-bw (at most [`MAX_HEADER_BYTES`]); the data by this module, element by
+//! element, straight into the mesh's arrays. Before any array is allocated, the header's counts are checked
+//! against what the file can hold (every value takes at least its binary size, or in ASCII a character and
+//! a separator; a `.ply.gz` file inflates to at most [`super::MAX_INFLATE_RATIO`] times its size) and the
+//! mesh they make against the memory left (`render::memory::check_mesh`); a binary list whose length
+//! exceeds the data left is refused when its length is read, an ASCII line may be at most
+//! [`MAX_ASCII_LINE`] bytes, and the triangles of polygons beyond the face count are checked against the
+//! memory left as the array grows. So a hostile header costs neither memory nor time.
 
-use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use flate2::bufread::GzDecoder;
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{BeginList, ElementDef, Property, PropertyAccess, PropertyAccessResult};
+use ply_rs_bw::ply::{ElementDef, Encoding, PropertyAccess, PropertyType, ScalarType};
 
-use super::TriangleMesh;
+use super::{reserved, TriangleMesh, MAX_INFLATE_RATIO};
 use crate::error::MeshError;
 use crate::math::{Vec2, Vec3};
 
+/// The longest header read (real headers are a few hundred bytes; comments make some a few kilobytes).
+pub const MAX_HEADER_BYTES: u64 = 1 << 20;
+/// The longest line of ASCII data (a polygon of 65,536 corners, each up to 15 characters, fits).
+pub const MAX_ASCII_LINE: u64 = 1 << 20;
+
 /// Reads a PLY file (ASCII or binary).
 pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|error| MeshError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
-    read_ply(BufReader::new(file), path)
+    let (file, len) = super::open_regular(path)?;
+    read_ply_within(BufReader::new(file), path, DataBound { bytes: len, inflated: false })
 }
 
 /// Reads a gzip-compressed PLY file (`.ply.gz`).
 pub fn load_ply_gz(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let file = File::open(path).map_err(|error| MeshError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
-    read_ply(BufReader::new(GzDecoder::new(BufReader::new(file))), path)
+    let (file, len) = super::open_regular(path)?;
+    let bound = DataBound { bytes: len.saturating_mul(MAX_INFLATE_RATIO), inflated: true };
+    read_ply_within(BufReader::new(GzDecoder::new(BufReader::new(file.take(len)))), path, bound)
 }
 
-/// Reads PLY data from `reader`; `path` only names the source in errors.
-pub fn read_ply<R: BufRead>(mut reader: R, path: &Path) -> Result<TriangleMesh, MeshError> {
+/// Reads PLY data from `reader`; `path` only names the source in errors. Nothing bounds the data but the
+/// header's counts and the memory left (for files: [`load_ply`]).
+pub fn read_ply<R: BufRead>(reader: R, path: &Path) -> Result<TriangleMesh, MeshError> {
+    read_ply_within(reader, path, DataBound { bytes: u64::MAX, inflated: false })
+}
+
+/// The most bytes (header included) a source can deliver: a file's size, or what a compressed file can
+/// inflate to.
+#[derive(Clone, Copy, Debug)]
+struct DataBound {
+    bytes: u64,
+    inflated: bool,
+}
+
+/// Reads PLY data of at most `bound` bytes from `reader`.
+fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> Result<TriangleMesh, MeshError> {
     // ply-rs-bw's messages span several lines ("...\n\tString: '...'\n\tError: ..."): keep them on one.
     let parse_error = |message: String| MeshError::Parse {
         path: path.to_path_buf(),
@@ -61,10 +83,17 @@ pub fn read_ply<R: BufRead>(mut reader: R, path: &Path) -> Result<TriangleMesh, 
     if !(fits(b"ply\n") || fits(b"ply\r\n")) {
         return Err(parse_error("not a PLY file: it must start with the line `ply`".into()));
     }
-    let mut reader = Reader::new(reader);
-    let header = Parser::<Skip>::new()
-        .read_header(&mut reader)
-        .map_err(|e| parse_error(e.to_string()))?;
+    let mut reader = Reader::new(reader.take(MAX_HEADER_BYTES));
+    let header = Parser::<Skip>::new().read_header(&mut reader).map_err(|e| {
+        if reader.get_ref().limit() == 0 {
+            parse_error(format!("no `end_header` within the first {MAX_HEADER_BYTES} bytes"))
+        } else {
+            parse_error(e.to_string())
+        }
+    })?;
+    let reader = reader.into_inner();
+    let header_bytes = MAX_HEADER_BYTES - reader.limit();
+    let reader = reader.into_inner();
 
     let vertex_def = header
         .elements
@@ -75,77 +104,322 @@ pub fn read_ply<R: BufRead>(mut reader: R, path: &Path) -> Result<TriangleMesh, 
         return Err(parse_error("the `vertex` element lacks one of the properties x, y, z".into()));
     }
     let has_normals = declared("nx") && declared("ny") && declared("nz");
-    let has_uvs = UV_NAMES.iter().any(|[u, v]| declared(u) && declared(v));
+    let uv_names = UV_NAMES.iter().find(|[u, v]| declared(u) && declared(v));
     let face_def = header
         .elements
         .get("face")
         .ok_or_else(|| parse_error("no `face` element (a point cloud?)".into()))?;
-    if !face_def.properties.keys().any(|k| is_index_list(k)) {
-        return Err(parse_error(
-            "the `face` element has no `vertex_indices` (or `vertex_index`) list".into(),
-        ));
-    }
-
-    // Elements must be read in the order the header declares them.
-    let mut vertices: Vec<PlyVertex> = Vec::new();
-    let mut faces: Vec<PlyFace> = Vec::new();
+    let index_list = face_def
+        .properties
+        .values()
+        .find(|p| is_index_list(&p.name))
+        .ok_or_else(|| parse_error("the `face` element has no `vertex_indices` (or `vertex_index`) list".into()))?
+        .name
+        .clone();
     for element in header.elements.values() {
-        let context = |e: ply_rs_bw::parser::ParseError| parse_error(format!("element `{}`: {e}", element.name));
-        match element.name.as_str() {
-            "vertex" => {
-                vertices = Parser::<PlyVertex>::new()
-                    .read_payload_for_element(&mut reader, element, &header)
-                    .map_err(context)?
+        for p in element.properties.values() {
+            match p.data_type {
+                PropertyType::List(ScalarType::Float | ScalarType::Double, _) => {
+                    return Err(parse_error(format!("element `{}`: the list `{}` has a floating-point length", element.name, p.name)))
+                }
+                PropertyType::List(_, ScalarType::Float | ScalarType::Double) if p.name == index_list && element.name == "face" => {
+                    return Err(parse_error(format!("the `face` element's `{index_list}` holds floating-point numbers, not vertex indices")))
+                }
+                _ => {}
             }
-            "face" => {
-                faces = Parser::<PlyFace>::new()
-                    .read_payload_for_element(&mut reader, element, &header)
-                    .map_err(context)?
-            }
-            _ => skip_element(&mut reader, element, &header).map_err(context)?,
         }
     }
 
-    let vertex_count = vertices.len();
+    // What the header promises, against what the file can hold and the memory left.
+    let (vertex_count, face_count) = (vertex_def.count as u64, face_def.count as u64);
     if u32::try_from(vertex_count).is_err() {
+        return Err(parse_error(format!("{vertex_count} vertices is more than 32-bit indices can address")));
+    }
+    let binary = header.encoding != Encoding::Ascii;
+    let promised = header.elements.values().fold(0u64, |sum, e| sum.saturating_add((e.count as u64).saturating_mul(least_row_bytes(e, binary))));
+    let data_bound = bound.bytes.saturating_sub(header_bytes);
+    if promised > data_bound {
         return Err(parse_error(format!(
-            "{vertex_count} vertices is more than 32-bit indices can address"
+            "the header promises {vertex_count} vertices and {face_count} faces, at least {promised} bytes of data, more than {}",
+            if bound.inflated {
+                format!("the file can hold ({MAX_INFLATE_RATIO} times its {} compressed bytes at most)", bound.bytes / MAX_INFLATE_RATIO)
+            } else {
+                format!("the {data_bound} bytes after its header")
+            }
         )));
     }
-    let mut mesh = TriangleMesh {
-        positions: vertices.iter().map(|v| Vec3::from_array(v.position)).collect(),
-        indices: Vec::with_capacity(faces.len()),
-        normals: has_normals.then(|| vertices.iter().map(|v| Vec3::from_array(v.normal)).collect()),
-        uvs: has_uvs.then(|| vertices.iter().map(|v| Vec2::from_array(v.uv)).collect()),
-    };
-    drop(vertices);
+    crate::render::memory::check_mesh(vertex_count, face_count, has_normals, uv_names.is_some(), 0).map_err(parse_error)?;
 
-    let mut corners: Vec<u32> = Vec::new();
-    for (face, f) in faces.iter().enumerate() {
-        corners.clear();
-        let out_of_range = |index: i64| {
-            parse_error(format!(
-                "face {face} refers to vertex {index}, but there are {vertex_count} vertices"
-            ))
-        };
-        // A face reads its list into `signed` or `unsigned` depending on the declared type.
-        for &i in &f.signed {
-            let index = u32::try_from(i).map_err(|_| out_of_range(i64::from(i)))?;
-            corners.push(index);
+    let mut mesh = TriangleMesh {
+        positions: reserved(vertex_count, "vertex positions").map_err(parse_error)?,
+        indices: reserved(face_count, "triangles").map_err(parse_error)?,
+        normals: if has_normals { Some(reserved(vertex_count, "vertex normals").map_err(parse_error)?) } else { None },
+        uvs: if uv_names.is_some() { Some(reserved(vertex_count, "vertex uvs").map_err(parse_error)?) } else { None },
+    };
+    let mut data = Data { reader, left: data_bound, encoding: header.encoding, line: Vec::new(), at: 0 };
+    // Elements must be read in the order the header declares them.
+    for element in header.elements.values() {
+        let context = |i: usize, m: String| parse_error(format!("element `{}` {i}: {m}", element.name));
+        match element.name.as_str() {
+            "vertex" => {
+                let slot = |name: &str| -> Option<usize> {
+                    match name {
+                        "x" => Some(0),
+                        "y" => Some(1),
+                        "z" => Some(2),
+                        "nx" if has_normals => Some(3),
+                        "ny" if has_normals => Some(4),
+                        "nz" if has_normals => Some(5),
+                        n if uv_names.is_some_and(|[u, _]| *u == n) => Some(6),
+                        n if uv_names.is_some_and(|[_, v]| *v == n) => Some(7),
+                        _ => None,
+                    }
+                };
+                let slots: Vec<Option<usize>> = element.properties.values().map(|p| slot(&p.name)).collect();
+                for i in 0..element.count {
+                    data.begin_element().map_err(|m| context(i, m))?;
+                    let mut v = [0f32; 8];
+                    for (p, &slot) in element.properties.values().zip(&slots) {
+                        match (p.data_type.clone(), slot) {
+                            (PropertyType::Scalar(t), Some(k)) => v[k] = data.scalar(&t).map_err(|m| context(i, m))?.to_f32(),
+                            (t, _) => data.skip(&t).map_err(|m| context(i, m))?,
+                        }
+                    }
+                    data.end_element().map_err(|m| context(i, m))?;
+                    mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
+                    if let Some(n) = &mut mesh.normals {
+                        n.push(Vec3::new(v[3], v[4], v[5]));
+                    }
+                    if let Some(uv) = &mut mesh.uvs {
+                        uv.push(Vec2::new(v[6], v[7]));
+                    }
+                }
+            }
+            "face" => {
+                let mut corners: Vec<u32> = Vec::new();
+                for face in 0..element.count {
+                    data.begin_element().map_err(|m| context(face, m))?;
+                    for p in element.properties.values() {
+                        match &p.data_type {
+                            PropertyType::List(count_type, item_type) if p.name == index_list => {
+                                corners.clear();
+                                let n = data.list_len(count_type, item_type).map_err(|m| context(face, m))?;
+                                // The fan's triangles beyond the face count: checked against the memory left.
+                                let fan = n.saturating_sub(2);
+                                let room = (mesh.indices.capacity() - mesh.indices.len()) as u64;
+                                if fan > room {
+                                    let more = (fan - room).max(mesh.indices.capacity() as u64 / 2);
+                                    crate::render::memory::check_mesh(0, more, false, false, 0).map_err(|m| context(face, format!("its polygons make more triangles than the faces: {m}")))?;
+                                    mesh.indices.try_reserve(more as usize).map_err(|_| context(face, format!("cannot allocate {more} more triangles: out of memory")))?;
+                                }
+                                for _ in 0..n {
+                                    let i = data.scalar(item_type).map_err(|m| context(face, m))?.to_i64();
+                                    let index = u32::try_from(i).ok().filter(|&i| (i as u64) < vertex_count).ok_or_else(|| {
+                                        parse_error(format!("face {face} refers to vertex {i}, but there are {vertex_count} vertices"))
+                                    })?;
+                                    corners.push(index);
+                                }
+                                if corners.len() < 3 {
+                                    return Err(parse_error(format!("face {face} has {} vertices; a face needs at least 3", corners.len())));
+                                }
+                                mesh.indices.extend(corners.windows(2).skip(1).map(|w| [corners[0], w[0], w[1]]));
+                            }
+                            t => data.skip(t).map_err(|m| context(face, m))?,
+                        }
+                    }
+                    data.end_element().map_err(|m| context(face, m))?;
+                }
+            }
+            _ => {
+                for i in 0..element.count {
+                    data.begin_element().map_err(|m| context(i, m))?;
+                    for p in element.properties.values() {
+                        data.skip(&p.data_type).map_err(|m| context(i, m))?;
+                    }
+                    data.end_element().map_err(|m| context(i, m))?;
+                }
+            }
         }
-        corners.extend_from_slice(&f.unsigned);
-        if let Some(&bad) = corners.iter().find(|&&i| i as usize >= vertex_count) {
-            return Err(out_of_range(i64::from(bad)));
-        }
-        if corners.len() < 3 {
-            return Err(parse_error(format!(
-                "face {face} has {} vertices; a face needs at least 3",
-                corners.len()
-            )));
-        }
-        mesh.indices.extend(corners.windows(2).skip(1).map(|w| [corners[0], w[0], w[1]]));
     }
     Ok(mesh)
+}
+
+/// The fewest bytes one element of `e` takes: binary, each scalar's size and each list's length field; ASCII,
+/// a character and a separator per scalar and list length.
+fn least_row_bytes(e: &ElementDef, binary: bool) -> u64 {
+    e.properties
+        .values()
+        .map(|p| match (&p.data_type, binary) {
+            (PropertyType::Scalar(t) | PropertyType::List(t, _), true) => scalar_size(t),
+            (_, false) => 2,
+        })
+        .sum()
+}
+
+fn scalar_size(t: &ScalarType) -> u64 {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+/// One value as its type holds it.
+#[derive(Clone, Copy)]
+enum Value {
+    Int(i64),
+    F32(f32),
+    F64(f64),
+}
+
+impl Value {
+    /// As f32: a double rounded to nearest (out-of-range doubles become ±∞, refused by
+    /// `TriangleMesh::validate`), an integer converted.
+    fn to_f32(self) -> f32 {
+        match self {
+            Value::Int(i) => i as f32,
+            Value::F32(f) => f,
+            Value::F64(f) => f as f32,
+        }
+    }
+
+    /// As an index: floats are refused by the header check, so only integers reach here.
+    fn to_i64(self) -> i64 {
+        match self {
+            Value::Int(i) => i,
+            Value::F32(f) => f as i64,
+            Value::F64(f) => f as i64,
+        }
+    }
+}
+
+/// The data after the header: binary values as they come, or ASCII lines of values; `left` bytes at most.
+struct Data<R: BufRead> {
+    reader: R,
+    left: u64,
+    encoding: Encoding,
+    /// ASCII: the current element's line and the read position in it.
+    line: Vec<u8>,
+    at: usize,
+}
+
+impl<R: BufRead> Data<R> {
+    /// ASCII: reads the element's line (at most [`MAX_ASCII_LINE`] bytes).
+    fn begin_element(&mut self) -> Result<(), String> {
+        if self.encoding != Encoding::Ascii {
+            return Ok(());
+        }
+        self.line.clear();
+        self.at = 0;
+        let cap = MAX_ASCII_LINE.min(self.left);
+        let n = (&mut self.reader).take(cap).read_until(b'\n', &mut self.line).map_err(|e| e.to_string())?;
+        self.left -= n as u64;
+        if n == 0 {
+            return Err("the file ends before this element".into());
+        }
+        // (A last line may end with the data, without a newline.)
+        if self.line.last() != Some(&b'\n') && n as u64 == MAX_ASCII_LINE {
+            return Err(format!("a line longer than {MAX_ASCII_LINE} bytes"));
+        }
+        Ok(())
+    }
+
+    /// ASCII: nothing may follow the element's values on its line.
+    fn end_element(&mut self) -> Result<(), String> {
+        if self.encoding == Encoding::Ascii && self.token()?.is_some() {
+            return Err("the line has more values than the element's properties".into());
+        }
+        Ok(())
+    }
+
+    /// ASCII: the next value on the line.
+    fn token(&mut self) -> Result<Option<&str>, String> {
+        let rest = &self.line[self.at..];
+        let Some(start) = rest.iter().position(|b| !b.is_ascii_whitespace()) else { return Ok(None) };
+        let len = rest[start..].iter().position(u8::is_ascii_whitespace).unwrap_or(rest.len() - start);
+        let (from, to) = (self.at + start, self.at + start + len);
+        self.at = to;
+        std::str::from_utf8(&self.line[from..to]).map(Some).map_err(|_| "a value is not text".to_string())
+    }
+
+    /// Exactly `N` bytes of binary data.
+    fn bytes<const N: usize>(&mut self) -> Result<[u8; N], String> {
+        if self.left < N as u64 {
+            return Err("the data ends within this element (the file is shorter than its header says)".into());
+        }
+        let mut b = [0u8; N];
+        self.reader.read_exact(&mut b).map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => "the file ends within this element (shorter than its header says)".to_string(),
+            _ => e.to_string(),
+        })?;
+        self.left -= N as u64;
+        Ok(b)
+    }
+
+    /// One value of type `t`.
+    fn scalar(&mut self, t: &ScalarType) -> Result<Value, String> {
+        macro_rules! binary {
+            ($ty:ty, $n:literal) => {{
+                let b = self.bytes::<$n>()?;
+                if self.encoding == Encoding::BinaryBigEndian {
+                    <$ty>::from_be_bytes(b)
+                } else {
+                    <$ty>::from_le_bytes(b)
+                }
+            }};
+        }
+        if self.encoding == Encoding::Ascii {
+            let token = self.token()?.ok_or("the line has fewer values than the element's properties")?;
+            // (A token is at most a line, up to a megabyte: the error shows its start.)
+            let shown: String = token.chars().take(40).collect();
+            let bad = |e: &dyn std::fmt::Display| format!("{shown:?}{} is not a {t:?}: {e}", if shown.len() < token.len() { "…" } else { "" });
+            return match t {
+                ScalarType::Float => token.parse::<f32>().map(Value::F32).map_err(|e| bad(&e)),
+                ScalarType::Double => token.parse::<f64>().map(Value::F64).map_err(|e| bad(&e)),
+                ScalarType::Char => token.parse::<i8>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+                ScalarType::UChar => token.parse::<u8>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+                ScalarType::Short => token.parse::<i16>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+                ScalarType::UShort => token.parse::<u16>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+                ScalarType::Int => token.parse::<i32>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+                ScalarType::UInt => token.parse::<u32>().map(|v| Value::Int(v.into())).map_err(|e| bad(&e)),
+            };
+        }
+        Ok(match t {
+            ScalarType::Char => Value::Int(binary!(i8, 1).into()),
+            ScalarType::UChar => Value::Int(binary!(u8, 1).into()),
+            ScalarType::Short => Value::Int(binary!(i16, 2).into()),
+            ScalarType::UShort => Value::Int(binary!(u16, 2).into()),
+            ScalarType::Int => Value::Int(binary!(i32, 4).into()),
+            ScalarType::UInt => Value::Int(binary!(u32, 4).into()),
+            ScalarType::Float => Value::F32(binary!(f32, 4)),
+            ScalarType::Double => Value::F64(binary!(f64, 8)),
+        })
+    }
+
+    /// A list's length, refused at once when its items cannot fit in the data left.
+    fn list_len(&mut self, count_type: &ScalarType, item_type: &ScalarType) -> Result<u64, String> {
+        let n = self.scalar(count_type)?.to_i64();
+        let n = u64::try_from(n).map_err(|_| format!("a list of length {n}"))?;
+        let least = if self.encoding == Encoding::Ascii { 2 } else { scalar_size(item_type) };
+        if self.encoding != Encoding::Ascii && n.saturating_mul(least) > self.left {
+            return Err(format!("a list of {n} items, more than the {} bytes of data left can hold", self.left));
+        }
+        Ok(n)
+    }
+
+    /// Reads and drops a property's value(s).
+    fn skip(&mut self, t: &PropertyType) -> Result<(), String> {
+        match t {
+            PropertyType::Scalar(s) => self.scalar(s).map(drop),
+            PropertyType::List(c, item) => {
+                for _ in 0..self.list_len(c, item)? {
+                    self.scalar(item)?;
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 /// Writes `mesh` as a binary little-endian PLY: `x y z` (float), `nx ny nz` and `u v` (float) when the mesh
@@ -193,122 +467,13 @@ fn is_index_list(name: &str) -> bool {
     name == "vertex_indices" || name == "vertex_index"
 }
 
-/// One PLY vertex: the attributes we keep (absent ones stay zero and are dropped by the header check).
-#[derive(Default)]
-struct PlyVertex {
-    position: [f32; 3],
-    normal: [f32; 3],
-    uv: [f32; 2],
-}
-
-impl PlyVertex {
-    fn slot(&mut self, name: &str) -> Option<&mut f32> {
-        match name {
-            "x" => Some(&mut self.position[0]),
-            "y" => Some(&mut self.position[1]),
-            "z" => Some(&mut self.position[2]),
-            "nx" => Some(&mut self.normal[0]),
-            "ny" => Some(&mut self.normal[1]),
-            "nz" => Some(&mut self.normal[2]),
-            "u" | "s" | "texture_u" | "texture_s" => Some(&mut self.uv[0]),
-            "v" | "t" | "texture_v" | "texture_t" => Some(&mut self.uv[1]),
-            _ => None,
-        }
-    }
-}
-
-impl PropertyAccess for PlyVertex {
-    fn new() -> Self {
-        Self::default()
-    }
-
-    fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        match self.slot(name) {
-            Some(slot) => {
-                *slot = value;
-                PropertyAccessResult::Set
-            }
-            None => PropertyAccessResult::Ignored,
-        }
-    }
-
-    fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
-        // Out-of-range doubles become ±∞ here and are rejected by `TriangleMesh::validate`.
-        self.set_float(name, value as f32)
-    }
-
-    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
-        match (self.slot(name), property.to_f32_lossy()) {
-            (Some(slot), Some(value)) => {
-                *slot = value;
-                PropertyAccessResult::Set
-            }
-            (Some(_), None) => PropertyAccessResult::UnsupportedType,
-            (None, _) => PropertyAccessResult::Ignored,
-        }
-    }
-}
-
-/// One PLY face: its vertex list, in `signed` or `unsigned` depending on the declared list type.
-#[derive(Default)]
-struct PlyFace {
-    signed: Vec<i32>,
-    unsigned: Vec<u32>,
-}
-
-impl PropertyAccess for PlyFace {
-    fn new() -> Self {
-        Self::default()
-    }
-
-    fn begin_list_int(&mut self, name: &str, _len: usize) -> BeginList<'_, i32> {
-        if is_index_list(name) {
-            BeginList::Fill(&mut self.signed)
-        } else {
-            BeginList::UseSetter
-        }
-    }
-
-    fn begin_list_uint(&mut self, name: &str, _len: usize) -> BeginList<'_, u32> {
-        if is_index_list(name) {
-            BeginList::Fill(&mut self.unsigned)
-        } else {
-            BeginList::UseSetter
-        }
-    }
-
-    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
-        if !is_index_list(name) {
-            return PropertyAccessResult::Ignored;
-        }
-        match property {
-            Property::ListChar(v) => self.signed = v.into_iter().map(i32::from).collect(),
-            Property::ListUChar(v) => self.signed = v.into_iter().map(i32::from).collect(),
-            Property::ListShort(v) => self.signed = v.into_iter().map(i32::from).collect(),
-            Property::ListUShort(v) => self.signed = v.into_iter().map(i32::from).collect(),
-            Property::ListInt(v) => self.signed = v,
-            Property::ListUInt(v) => self.unsigned = v,
-            _ => return PropertyAccessResult::UnsupportedType,
-        }
-        PropertyAccessResult::Set
-    }
-}
-
-/// An element we do not use; every property is parsed and dropped.
+/// The header parser's element type (ply-rs-bw's parser is generic over one; this module reads the data).
 struct Skip;
 
 impl PropertyAccess for Skip {
     fn new() -> Self {
         Skip
     }
-}
-
-fn skip_element<R: BufRead>(
-    reader: &mut Reader<R>,
-    element: &ElementDef,
-    header: &ply_rs_bw::ply::Header,
-) -> Result<(), ply_rs_bw::parser::ParseError> {
-    Parser::<Skip>::new().read_payload_for_element(reader, element, header).map(drop)
 }
 
 #[cfg(test)]
@@ -356,6 +521,15 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
             bytes.extend_from_slice(&if big_endian { i.to_be_bytes() } else { i.to_le_bytes() });
         }
         bytes
+    }
+
+    #[test]
+    fn ascii_without_a_last_newline() {
+        let text = ASCII.trim_end_matches('\n');
+        assert_eq!(read(text.as_bytes()).unwrap().indices.len(), 3);
+        // The same within a file's bound: the data ends where the last line does.
+        let bound = DataBound { bytes: text.len() as u64, inflated: false };
+        assert_eq!(read_ply_within(Cursor::new(text.as_bytes()), Path::new("t.ply"), bound).unwrap().indices.len(), 3);
     }
 
     #[test]

@@ -28,18 +28,19 @@
 //! ignored, as Mitsuba 3 does for these versions: only the scene's `face_normals` makes a shape flat.
 //! Version 5 (Mitsuba after 3.9: packed records, surface-point maps) is named and refused.
 //!
-//! Reading is bounded by the data: every array is read through a `take` of exactly its promised size and
-//! grows only as bytes arrive, so a header promising more than its stream holds is an error after at most
-//! the stream's own size, never an allocation of the promised size. The compressed input of a shape found
-//! through the dictionary ends where the next shape (or the dictionary) begins.
+//! Reading is bounded by the data: the counts are checked before any array is allocated, against what the
+//! shape's compressed bytes can inflate to ([`super::MAX_INFLATE_RATIO`] times their size: a header that
+//! promises more is refused at once) and against the memory left (`render::memory::check_mesh`); the
+//! arrays are then reserved with `try_reserve` and filled as the stream delivers, chunk by chunk, so a
+//! stream shorter than its counts is an error after at most its own size. The compressed input of a shape
+//! found through the dictionary ends where the next shape (or the dictionary) begins.
 
-use std::fs::File;
 use std::io::{self, BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use flate2::read::ZlibDecoder;
 
-use super::TriangleMesh;
+use super::{reserved, TriangleMesh, MAX_INFLATE_RATIO};
 use crate::error::MeshError;
 use crate::math::{Vec2, Vec3};
 
@@ -63,7 +64,7 @@ pub struct SerializedShape {
 
 /// Reads shape `shape_index` of the serialized file at `path`.
 pub fn load_serialized(path: &Path, shape_index: u32) -> Result<SerializedShape, MeshError> {
-    let file = File::open(path).map_err(|error| MeshError::Io { path: path.to_path_buf(), error })?;
+    let (file, _) = super::open_regular(path)?;
     read_serialized(BufReader::new(file), shape_index, path)
 }
 
@@ -103,7 +104,7 @@ pub fn read_serialized<R: Read + Seek>(mut reader: R, shape_index: u32, path: &P
     };
     reader.seek(SeekFrom::Start(start)).map_err(io_err)?;
     let mut stream = Stream { inner: ZlibDecoder::new(reader.take(end - start)) };
-    let mesh = read_shape(&mut stream, version).map_err(err)?;
+    let mesh = read_shape(&mut stream, version, end - start).map_err(err)?;
     mesh.mesh.validate(path)?;
     Ok(mesh)
 }
@@ -212,14 +213,43 @@ impl<R: Read> Stream<R> {
         Ok(u64::from_le_bytes(b[..8].try_into().unwrap_or_default()))
     }
 
-    /// `count` values of `dim` floats each (f32, or f64 rounded to f32).
-    fn floats(&mut self, count: u64, dim: u64, double: bool, what: &str) -> Result<Vec<f32>, String> {
+    /// `count` records of `size` bytes each, made by `make` into a vector reserved up front (the counts were
+    /// checked against the memory left) and filled chunk by chunk as the stream delivers.
+    fn records<T>(&mut self, count: u64, size: usize, what: &str, make: impl Fn(&[u8]) -> T) -> Result<Vec<T>, String> {
+        let n = count.checked_mul(size as u64).ok_or_else(|| format!("{count} {what} is more data than any file holds"))?;
+        let mut out = reserved(count, what)?;
+        let mut chunk = vec![0u8; size * (1 << 12)];
+        let mut got = 0u64;
+        while got < n {
+            let len = chunk.len().min((n - got) as usize);
+            let buf = &mut chunk[..len];
+            let mut filled = 0;
+            while filled < len {
+                match self.inner.read(&mut buf[filled..]) {
+                    Ok(0) => return Err(format!("the stream ends after {} of the {n} bytes of {count} {what}", got + filled as u64)),
+                    Ok(k) => filled += k,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(format!("reading the {what}: {e}")),
+                }
+            }
+            out.extend(buf.chunks_exact(size).map(&make));
+            got += len as u64;
+        }
+        Ok(out)
+    }
+
+    /// `count` values of `D` floats each (f32, or f64 rounded to f32), made by `make`.
+    fn floats<T, const D: usize>(&mut self, count: u64, double: bool, what: &str, make: impl Fn([f32; D]) -> T) -> Result<Vec<T>, String> {
         let size = if double { 8 } else { 4 };
-        let bytes = self.bytes(count, dim * size, what)?;
-        Ok(if double {
-            bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or_default()) as f32).collect()
-        } else {
-            bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap_or_default())).collect()
+        self.records(count, D * size, what, |c| {
+            make(std::array::from_fn(|k| {
+                let b = &c[k * size..(k + 1) * size];
+                if double {
+                    f64::from_le_bytes(b.try_into().unwrap_or_default()) as f32
+                } else {
+                    f32::from_le_bytes(b.try_into().unwrap_or_default())
+                }
+            }))
         })
     }
 
@@ -243,8 +273,9 @@ impl<R: Read> Stream<R> {
 /// The longest shape name read (Mitsuba sets no limit; real names are object names from a modeller).
 const MAX_NAME: usize = 1 << 16;
 
-/// The shape record after the block header: flags, name (version 4), counts, arrays.
-fn read_shape<R: Read>(s: &mut Stream<R>, version: u16) -> Result<SerializedShape, String> {
+/// The shape record after the block header: flags, name (version 4), counts, arrays. `compressed`: the
+/// bytes of the shape's zlib stream, which bound what the counts may promise.
+fn read_shape<R: Read>(s: &mut Stream<R>, version: u16, compressed: u64) -> Result<SerializedShape, String> {
     let flags = s.u32("flags")?;
     let name = if version == 4 { Some(s.c_string()?) } else { None };
     let vertex_count = s.u64("vertex count")?;
@@ -253,29 +284,28 @@ fn read_shape<R: Read>(s: &mut Stream<R>, version: u16) -> Result<SerializedShap
         return Err(format!("{vertex_count} vertices is more than 32-bit indices can address"));
     }
     let double = flags & DOUBLE_PRECISION != 0;
-    let vec3s = |v: Vec<f32>| -> Vec<Vec3> { v.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect() };
-    let positions = vec3s(s.floats(vertex_count, 3, double, "vertex positions")?);
-    let normals = if flags & HAS_NORMALS != 0 {
-        Some(vec3s(s.floats(vertex_count, 3, double, "vertex normals")?))
-    } else {
-        None
-    };
-    let uvs = if flags & HAS_UVS != 0 {
-        Some(s.floats(vertex_count, 2, double, "vertex uvs")?.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect())
-    } else {
-        None
-    };
-    if flags & HAS_COLORS != 0 {
+    let (has_normals, has_uvs, has_colors) = (flags & HAS_NORMALS != 0, flags & HAS_UVS != 0, flags & HAS_COLORS != 0);
+    let floats_per_vertex = 3 + 3 * u64::from(has_normals) + 2 * u64::from(has_uvs) + 3 * u64::from(has_colors);
+    let promised = vertex_count
+        .saturating_mul(floats_per_vertex * if double { 8 } else { 4 })
+        .saturating_add(face_count.saturating_mul(12));
+    if promised > compressed.saturating_mul(MAX_INFLATE_RATIO) {
+        return Err(format!(
+            "the header promises {vertex_count} vertices and {face_count} triangles, {promised} bytes of data, more than \
+             the shape's {compressed} compressed bytes can hold ({MAX_INFLATE_RATIO} times as many at most)"
+        ));
+    }
+    crate::render::memory::check_mesh(vertex_count, face_count, has_normals, has_uvs, 0)?;
+    let positions = s.floats(vertex_count, double, "vertex positions", Vec3::from_array)?;
+    let normals = if has_normals { Some(s.floats(vertex_count, double, "vertex normals", Vec3::from_array)?) } else { None };
+    let uvs = if has_uvs { Some(s.floats(vertex_count, double, "vertex uvs", Vec2::from_array)?) } else { None };
+    if has_colors {
         s.skip(vertex_count, 3 * if double { 8 } else { 4 }, "vertex colours")?;
     }
-    let indices = s
-        .bytes(face_count, 12, "triangles")?
-        .chunks_exact(12)
-        .map(|c| {
-            let u = |k: usize| u32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
-            [u(0), u(4), u(8)]
-        })
-        .collect();
+    let indices = s.records(face_count, 12, "triangles", |c| {
+        let u = |k: usize| u32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
+        [u(0), u(4), u(8)]
+    })?;
     Ok(SerializedShape { name, mesh: TriangleMesh { positions, indices, normals, uvs } })
 }
 
@@ -473,7 +503,7 @@ mod tests {
             // More vertices or triangles than the stream holds; the largest counts would be terabytes.
             for counts in [(5, 2), (4, 3), (1 << 31, 2), (4, u64::MAX / 12), (4, u64::MAX)] {
                 let e = error(&write_file(4, &[s.clone()], Some(counts)), 0);
-                assert!(e.contains("the stream ends after") || e.contains("more data than any file holds"), "{counts:?}: {e}");
+                assert!(e.contains("the stream ends after") || e.contains("compressed bytes can hold"), "{counts:?}: {e}");
             }
             let e = error(&write_file(3, &[s.clone()], Some((1 << 33, 2))), 0);
             assert!(e.contains("more than 32-bit indices can address"), "{e}");

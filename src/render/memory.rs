@@ -19,6 +19,14 @@
 //!
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
+//!
+//! A mesh file's part is known before the file's arrays are read: each reader (`crate::mesh`) takes its
+//! vertex and triangle counts from the header (PLY, serialized) or a count of the lines (OBJ) and asks
+//! [`check_mesh`] whether they fit in what the limit leaves, so a file that promises more than memory holds
+//! is refused before anything of its size is allocated; the whole render's check then counts every mesh.
+//!
+//! The limit ([`MemoryLimit::process`]) is `--memory-limit` where given, else the smallest of the machine's
+//! physical memory, the process's cgroup limit and its address-space limit ([`crate::sys::memory_bound`]).
 
 use crate::film::{PixelSum, PixelWeight};
 use crate::math::Vec3;
@@ -26,7 +34,8 @@ use crate::photon::counts::MAX_CELLS_PER_PHOTON;
 use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
 use crate::photon::{DecodedPhoton, Photon, PhotonBudget};
 use crate::scene::{Scene, TriangleShading};
-use crate::sys::gb;
+use crate::sys::{gb, MemorySource};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::{photon_pass_needed, RenderSettings};
 
@@ -43,8 +52,7 @@ impl MemoryEstimate {
     #[must_use]
     pub fn of(scene: &Scene, settings: &RenderSettings) -> Self {
         let m = &scene.mesh;
-        let vertex = size_of::<Vec3>() as u64 * (1 + u64::from(m.normals.is_some())) + if m.uvs.is_some() { 8 } else { 0 };
-        let mesh = (m.positions.len() as u64).saturating_mul(vertex).saturating_add((m.indices.len() as u64).saturating_mul(12 + 4 + 1 + size_of::<TriangleShading>() as u64));
+        let mesh = mesh_bytes(m.positions.len() as u64, m.indices.len() as u64, m.normals.is_some(), m.uvs.is_some());
         let per_pixel = size_of::<PixelSum>() + if scene.camera.filter().is_box() { 0 } else { size_of::<PixelWeight>() };
         let film = scene.camera.crop().area().saturating_mul(per_pixel as u64);
         let photon_map = if photon_pass_needed(scene, settings.estimator).is_ok() { photon_map_bytes(settings.photons) } else { 0 };
@@ -66,6 +74,40 @@ impl MemoryEstimate {
     }
 }
 
+/// The mesh part of the estimate (module docs): `vertices` positions (and normals, uvs), `triangles` index
+/// triples, materials, flags and shading records.
+#[must_use]
+pub fn mesh_bytes(vertices: u64, triangles: u64, normals: bool, uvs: bool) -> u64 {
+    let vertex = size_of::<Vec3>() as u64 * (1 + u64::from(normals)) + if uvs { 8 } else { 0 };
+    vertices.saturating_mul(vertex).saturating_add(triangles.saturating_mul(12 + 4 + 1 + size_of::<TriangleShading>() as u64))
+}
+
+/// Whether a mesh file's `vertices` and `triangles` (from its header, before its arrays are read) fit in
+/// what the process's limit leaves beside the memory it already holds (the meshes read before it among
+/// them); `extra`: bytes the reader holds besides the mesh (an OBJ file's text). The error says what the
+/// mesh needs and what is left.
+pub fn check_mesh(vertices: u64, triangles: u64, normals: bool, uvs: bool, extra: u64) -> Result<(), String> {
+    let Some(limit) = MemoryLimit::process() else { return Ok(()) };
+    let need = mesh_bytes(vertices, triangles, normals, uvs).saturating_add(extra);
+    let held = crate::sys::resident_bytes().saturating_sub(BASELINE.load(Ordering::Relaxed));
+    let left = limit.bytes.saturating_sub(held);
+    if need <= left {
+        return Ok(());
+    }
+    Err(format!(
+        "its {vertices} vertices and {triangles} triangles need about {} to render, more than the {} left of {} ({})",
+        gb(need),
+        gb(left),
+        limit.source.describe(),
+        gb(limit.bytes),
+    ))
+}
+
+/// `--memory-limit` in bytes (0: not given), set once by the command line before any scene is read.
+static USER_LIMIT: AtomicU64 = AtomicU64::new(0);
+/// The resident memory when the limit was set: the program itself, not counted against the meshes.
+static BASELINE: AtomicU64 = AtomicU64::new(0);
+
 /// The photon map of one pass with `budget` (module docs).
 #[must_use]
 pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
@@ -78,16 +120,32 @@ pub fn photon_map_bytes(budget: PhotonBudget) -> u64 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MemoryLimit {
     pub bytes: u64,
-    /// `true`: the machine's physical memory (the default); `false`: set by the user.
-    pub physical: bool,
+    /// The machine's, the cgroup's or the address space's bound, or the user's `--memory-limit`.
+    pub source: MemorySource,
 }
 
 impl MemoryLimit {
-    /// The machine's physical memory ([`crate::sys::physical_memory`]), or `None` where it cannot be read
-    /// (then no limit is applied).
+    /// The smallest bound of the machine and the process ([`crate::sys::memory_bound`]), or `None` where
+    /// none can be read (then no limit is applied).
     #[must_use]
-    pub fn physical() -> Option<Self> {
-        crate::sys::physical_memory().map(|bytes| Self { bytes, physical: true })
+    pub fn machine() -> Option<Self> {
+        crate::sys::memory_bound().map(|(bytes, source)| Self { bytes, source })
+    }
+
+    /// `--memory-limit` where the command line set it ([`MemoryLimit::set_user`]), else [`MemoryLimit::machine`].
+    #[must_use]
+    pub fn process() -> Option<Self> {
+        match USER_LIMIT.load(Ordering::Relaxed) {
+            0 => Self::machine(),
+            bytes => Some(Self { bytes, source: MemorySource::User }),
+        }
+    }
+
+    /// Sets the process's limit to `--memory-limit` (`None`: the machine's), before any scene is read; the
+    /// memory held now is the program's own, not counted against the meshes read after.
+    pub fn set_user(bytes: Option<u64>) {
+        USER_LIMIT.store(bytes.unwrap_or(0).max(u64::from(bytes.is_some())), Ordering::Relaxed);
+        BASELINE.store(crate::sys::resident_bytes(), Ordering::Relaxed);
     }
 }
 
@@ -100,8 +158,8 @@ impl MemoryLimit {
     gb(need.photon_map),
     gb(need.mesh),
     gb(limit.bytes),
-    if limit.physical { "this machine's physical memory" } else { "the memory limit given" },
-    if limit.physical { ", or raise the limit with --memory-limit GB if swap or a larger machine will take it" } else { "" }
+    limit.source.describe(),
+    if limit.source == MemorySource::Physical { ", or raise the limit with --memory-limit GB if swap or a larger machine will take it" } else { "" }
 )]
 pub struct MemoryError {
     pub need: MemoryEstimate,
@@ -123,13 +181,13 @@ mod tests {
     #[test]
     fn check_names_each_part_and_the_way_out() {
         let need = MemoryEstimate { mesh: 1_000_000, film: 2_000_000_000, photon_map: 160_000_000_000 };
-        let limit = MemoryLimit { bytes: 24_000_000_000, physical: true };
+        let limit = MemoryLimit { bytes: 24_000_000_000, source: MemorySource::Physical };
         let msg = need.check(limit).unwrap_err().to_string();
         for part in ["162.00 GB", "film 2.00 GB", "photon map 160.00 GB", "mesh 0.00 GB", "24.00 GB", "physical memory", "--memory-limit"] {
             assert!(msg.contains(part), "{part:?} missing from {msg:?}");
         }
-        let user = MemoryLimit { bytes: 1_000_000_000, physical: false };
+        let user = MemoryLimit { bytes: 1_000_000_000, source: MemorySource::User };
         assert!(!need.check(user).unwrap_err().to_string().contains("--memory-limit GB if"));
-        assert_eq!(need.check(MemoryLimit { bytes: need.total(), physical: false }), Ok(()));
+        assert_eq!(need.check(MemoryLimit { bytes: need.total(), source: MemorySource::User }), Ok(()));
     }
 }
