@@ -41,7 +41,7 @@ pub enum SceneError {
         message: String,
     },
     /// A file the scene refers to (mesh, environment map) does not exist.
-    #[error("{}{}: {}: file not found: {}", file.display(), Line(*line), KeyPath(key), missing.display())]
+    #[error("{}{}: {}: file not found: {}", file.display(), Line(*line), KeyPath(key), cut(&missing.display().to_string()))]
     MissingFile {
         file: PathBuf,
         key: String,
@@ -52,7 +52,7 @@ pub enum SceneError {
     #[error("{}: the scene uses {} thing{} caustica cannot render:{}", file.display(), items.len(), if items.len() == 1 { "" } else { "s" }, UnsupportedList(items))]
     Unsupported { file: PathBuf, items: Vec<Unsupported> },
     /// A file the scene refers to exists but cannot be loaded.
-    #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), asset.display())]
+    #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), cut(&asset.display().to_string()))]
     Asset {
         file: PathBuf,
         key: String,
@@ -96,6 +96,51 @@ impl SceneError {
             SceneError::Key { key, .. } | SceneError::MissingFile { key, .. } | SceneError::Asset { key, .. } => Some(key),
             SceneError::Read { .. } | SceneError::Syntax { .. } | SceneError::XmlSyntax { .. } | SceneError::Unsupported { .. } => None,
         }
+    }
+}
+
+/// Characters of a value written in a scene file that messages echo: a value can be megabytes long (a
+/// hostile or broken file), and a message shows enough of it to find it.
+const SHOWN_CHARS: usize = 80;
+
+/// A value written in a scene file as messages show it: quoted (as `{:?}` quotes it), and when longer than
+/// [`SHOWN_CHARS`] characters cut there, with its length: `"0.5 0.5 0.5 …"… (20971520 bytes)`. Every
+/// message that echoes a value, name or attribute of a scene file uses it, or [`cut`] where it is not
+/// quoted.
+pub(crate) fn shown(value: &str) -> String {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => format!("{value:?}"),
+        Some((end, _)) => format!("{:?}… ({} bytes)", &value[..end], value.len()),
+    }
+}
+
+/// [`shown`] unquoted: a tag, a file name or a name between backticks.
+pub(crate) fn cut(value: &str) -> std::borrow::Cow<'_, str> {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => std::borrow::Cow::Borrowed(value),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &value[..end], value.len())),
+    }
+}
+
+/// A message of another parser (XML, TOML), which may echo a value of any length, cut as [`shown`] cuts
+/// values: its beginning and end are kept, the middle of a long one is left out.
+pub(crate) fn cut_message(message: &str) -> String {
+    let chars = message.chars().count();
+    if chars <= 4 * SHOWN_CHARS {
+        return message.to_string();
+    }
+    let head: String = message.chars().take(2 * SHOWN_CHARS).collect();
+    let tail: String = message.chars().skip(chars - SHOWN_CHARS).collect();
+    let left_out = message.len() - head.len() - tail.len();
+    format!("{head} …({left_out} bytes left out)… {tail}")
+}
+
+/// The TOML parser's message for tables, arrays or dotted keys nested past its limit, with what it means.
+fn nesting_explained(message: String) -> String {
+    if message.ends_with("recursion limit exceeded") {
+        format!("{message} (tables, arrays or dotted keys nested more than the TOML parser's 80 levels)")
+    } else {
+        message
     }
 }
 
@@ -165,7 +210,7 @@ impl ErrorContext {
     pub(crate) fn toml_error(&self, error: &toml::de::Error) -> SceneError {
         let span: Option<Range<usize>> = error.span();
         let key = span.as_ref().and_then(|s| self.spans.path_at(s)).unwrap_or_default();
-        let message = error.message().trim().to_string();
+        let message = cut_message(error.message().trim());
         if self.places.is_some() {
             return self.key_error(&key, message);
         }
@@ -180,7 +225,23 @@ impl ErrorContext {
             file: self.file.clone(),
             line,
             column,
-            message: error.message().trim().to_string(),
+            message: nesting_explained(cut_message(error.message().trim())),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_values_and_messages_are_cut() {
+        assert_eq!(shown("a\"b"), "\"a\\\"b\"");
+        let long = "x".repeat(20 << 20);
+        let s = shown(&long);
+        assert_eq!(s, format!("\"{}\"… (20971520 bytes)", "x".repeat(SHOWN_CHARS)));
+        let m = cut_message(&format!("invalid value {long} here"));
+        assert!(m.len() < 400 && m.starts_with("invalid value xx") && m.ends_with("xx here") && m.contains("bytes left out"), "{m}");
+        assert_eq!(cut_message("short"), "short");
     }
 }
