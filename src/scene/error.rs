@@ -16,7 +16,7 @@ pub enum SceneError {
     #[error("{}: cannot read the scene file: {source}", file.display())]
     Read { file: PathBuf, source: std::io::Error },
     /// The file is not valid TOML.
-    #[error("{}:{line}:{column}: TOML syntax error: {message}", file.display())]
+    #[error("{}:{line}:{column}: TOML syntax error: {}", file.display(), Message(message))]
     Syntax {
         file: PathBuf,
         line: usize,
@@ -24,7 +24,7 @@ pub enum SceneError {
         message: String,
     },
     /// The file is not well-formed XML.
-    #[error("{}:{line}:{column}: XML syntax error: {message}", file.display())]
+    #[error("{}:{line}:{column}: XML syntax error: {}", file.display(), Message(message))]
     XmlSyntax {
         file: PathBuf,
         line: usize,
@@ -33,7 +33,7 @@ pub enum SceneError {
     },
     /// A key is unknown, missing, of the wrong type, or has a value out of range; or a reference to a named
     /// material does not resolve.
-    #[error("{}{}: {}: {message}", file.display(), Line(*line), KeyPath(key))]
+    #[error("{}{}: {}: {}", file.display(), Line(*line), KeyPath(key), Message(message))]
     Key {
         file: PathBuf,
         key: String,
@@ -52,7 +52,7 @@ pub enum SceneError {
     #[error("{}: the scene uses {} thing{} caustica cannot render:{}", file.display(), items.len(), if items.len() == 1 { "" } else { "s" }, UnsupportedList(items))]
     Unsupported { file: PathBuf, items: Vec<Unsupported> },
     /// A file the scene refers to exists but cannot be loaded.
-    #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), cut(&asset.display().to_string()))]
+    #[error("{}{}: {}: cannot load {}: {}", file.display(), Line(*line), KeyPath(key), cut(&asset.display().to_string()), Message(message))]
     Asset {
         file: PathBuf,
         key: String,
@@ -125,14 +125,33 @@ pub(crate) fn cut(value: &str) -> std::borrow::Cow<'_, str> {
 /// A message of another parser (XML, TOML), which may echo a value of any length, cut as [`shown`] cuts
 /// values: its beginning and end are kept, the middle of a long one is left out.
 pub(crate) fn cut_message(message: &str) -> String {
-    let chars = message.chars().count();
-    if chars <= 4 * SHOWN_CHARS {
-        return message.to_string();
+    cut_middle(message, 2 * SHOWN_CHARS, SHOWN_CHARS).into_owned()
+}
+
+/// Characters kept at the beginning and the end of a message: what every message of a [`SceneError`] is
+/// cut to when displayed, should a value have been echoed without [`shown`].
+const MESSAGE_HEAD: usize = 1400;
+const MESSAGE_TAIL: usize = 500;
+
+/// `text` with its middle left out when it is longer than `head + tail` characters (and a note of how
+/// much is left out in its place).
+fn cut_middle(text: &str, head: usize, tail: usize) -> std::borrow::Cow<'_, str> {
+    let chars = text.chars().count();
+    if chars <= 2 * (head + tail) {
+        return std::borrow::Cow::Borrowed(text);
     }
-    let head: String = message.chars().take(2 * SHOWN_CHARS).collect();
-    let tail: String = message.chars().skip(chars - SHOWN_CHARS).collect();
-    let left_out = message.len() - head.len() - tail.len();
-    format!("{head} …({left_out} bytes left out)… {tail}")
+    let start = text.char_indices().nth(head).map_or(text.len(), |(i, _)| i);
+    let end = text.char_indices().nth(chars - tail).map_or(text.len(), |(i, _)| i);
+    std::borrow::Cow::Owned(format!("{} …({} bytes left out)… {}", &text[..start], end - start, &text[end..]))
+}
+
+/// A message as errors display it: cut by [`cut_middle`] to [`MESSAGE_HEAD`] and [`MESSAGE_TAIL`].
+struct Message<'a>(&'a str);
+
+impl fmt::Display for Message<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&cut_middle(self.0, MESSAGE_HEAD, MESSAGE_TAIL))
+    }
 }
 
 /// The TOML parser's message for tables, arrays or dotted keys nested past its limit, with what it means.
@@ -243,5 +262,9 @@ mod tests {
         let m = cut_message(&format!("invalid value {long} here"));
         assert!(m.len() < 400 && m.starts_with("invalid value xx") && m.ends_with("xx here") && m.contains("bytes left out"), "{m}");
         assert_eq!(cut_message("short"), "short");
+        // Every message is cut when displayed, should a value have been echoed whole.
+        let e = SceneError::Key { file: "a.toml".into(), key: "k".into(), line: Some(3), message: format!("got {long}!") };
+        let shown = e.to_string();
+        assert!(shown.len() < 2000 && shown.starts_with("a.toml:3: k: got xxx") && shown.ends_with("xx!"), "{}", &shown[..100]);
     }
 }

@@ -23,6 +23,7 @@ mod embree_backend;
 mod film_io;
 mod filters;
 mod fuzz;
+mod hostile_xml;
 mod long_delta_chains;
 mod mesh_load;
 mod mitsuba_features;
