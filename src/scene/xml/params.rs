@@ -29,7 +29,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use super::tree::Element;
-use super::super::error::{shown, SceneError};
+use super::super::error::{cut, shown, SceneError};
 
 /// The parameters declared so far: a trie over their names, so that the longest name at a `$` is found
 /// in time linear in its length however many parameters there are.
@@ -115,7 +115,7 @@ impl Params {
                     let what = if name.is_empty() {
                         "a `$` names no parameter (`\\$` is a dollar sign)".to_string()
                     } else {
-                        format!("{} is not defined (no <default name=\"…\" value=…> before it and no -D …=…)", shown(&format!("${name}")))
+                        format!("{} is not defined (no <default name=\"…\" value=…> before it and no -D …=…)", cut(&format!("${name}")))
                     };
                     el.error(format!("attribute `{}`: {what}", el.attrs[i].0))
                 })?;

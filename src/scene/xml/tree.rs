@@ -379,7 +379,7 @@ mod tests {
             "<shape type=\"sphere\"><float name=\"radius\" value=\"22\">"
         );
         let e = read("<float name=\"a\" value=\"$r\"/><default name=\"r\" value=\"1\"/>", &[], &d).unwrap_err();
-        assert!(e.contains("main.xml:1: <float name=\"a\">: attribute `value`: \"$r\" is not defined"), "{e}");
+        assert!(e.contains("main.xml:1: <float name=\"a\">: attribute `value`: $r is not defined"), "{e}");
         // A <default> in a <transform> is not one (Mitsuba: "unexpected <default> element inside <transform>").
         assert_eq!(ok("<transform name=\"t\"><default name=\"r\" value=\"1\"/></transform>", &[]), "<transform name=\"t\"><default name=\"r\" value=\"1\">");
         std::fs::write(d.join("part_b.xml"), "<scene version=\"3.0.0\"><default name=\"w\" value=\"5\"/><bsdf type=\"diffuse\"/></scene>").expect("write");
