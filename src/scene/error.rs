@@ -16,7 +16,7 @@ pub enum SceneError {
     #[error("{}: cannot read the scene file: {source}", file.display())]
     Read { file: PathBuf, source: std::io::Error },
     /// The file is not valid TOML.
-    #[error("{}:{line}:{column}: TOML syntax error: {message}", file.display())]
+    #[error("{}:{line}:{column}: TOML syntax error: {}", file.display(), Message(message))]
     Syntax {
         file: PathBuf,
         line: usize,
@@ -24,7 +24,7 @@ pub enum SceneError {
         message: String,
     },
     /// The file is not well-formed XML.
-    #[error("{}:{line}:{column}: XML syntax error: {message}", file.display())]
+    #[error("{}:{line}:{column}: XML syntax error: {}", file.display(), Message(message))]
     XmlSyntax {
         file: PathBuf,
         line: usize,
@@ -33,7 +33,7 @@ pub enum SceneError {
     },
     /// A key is unknown, missing, of the wrong type, or has a value out of range; or a reference to a named
     /// material does not resolve.
-    #[error("{}{}: {}: {message}", file.display(), Line(*line), KeyPath(key))]
+    #[error("{}{}: {}: {}", file.display(), Line(*line), KeyPath(key), Message(message))]
     Key {
         file: PathBuf,
         key: String,
@@ -41,7 +41,7 @@ pub enum SceneError {
         message: String,
     },
     /// A file the scene refers to (mesh, environment map) does not exist.
-    #[error("{}{}: {}: file not found: {}", file.display(), Line(*line), KeyPath(key), missing.display())]
+    #[error("{}{}: {}: file not found: {}", file.display(), Line(*line), KeyPath(key), cut(&missing.display().to_string()))]
     MissingFile {
         file: PathBuf,
         key: String,
@@ -52,7 +52,7 @@ pub enum SceneError {
     #[error("{}: the scene uses {} thing{} caustica cannot render:{}", file.display(), items.len(), if items.len() == 1 { "" } else { "s" }, UnsupportedList(items))]
     Unsupported { file: PathBuf, items: Vec<Unsupported> },
     /// A file the scene refers to exists but cannot be loaded.
-    #[error("{}{}: {}: cannot load {}: {message}", file.display(), Line(*line), KeyPath(key), asset.display())]
+    #[error("{}{}: {}: cannot load {}: {}", file.display(), Line(*line), KeyPath(key), cut(&asset.display().to_string()), Message(message))]
     Asset {
         file: PathBuf,
         key: String,
@@ -96,6 +96,70 @@ impl SceneError {
             SceneError::Key { key, .. } | SceneError::MissingFile { key, .. } | SceneError::Asset { key, .. } => Some(key),
             SceneError::Read { .. } | SceneError::Syntax { .. } | SceneError::XmlSyntax { .. } | SceneError::Unsupported { .. } => None,
         }
+    }
+}
+
+/// Characters of a value written in a scene file that messages echo: a value can be megabytes long (a
+/// hostile or broken file), and a message shows enough of it to find it.
+const SHOWN_CHARS: usize = 80;
+
+/// A value written in a scene file as messages show it: quoted (as `{:?}` quotes it), and when longer than
+/// [`SHOWN_CHARS`] characters cut there, with its length: `"0.5 0.5 0.5 …"… (20971520 bytes)`. Every
+/// message that echoes a value, name or attribute of a scene file uses it, or [`cut`] where it is not
+/// quoted.
+pub(crate) fn shown(value: &str) -> String {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => format!("{value:?}"),
+        Some((end, _)) => format!("{:?}… ({} bytes)", &value[..end], value.len()),
+    }
+}
+
+/// [`shown`] unquoted: a tag, a file name or a name between backticks.
+pub(crate) fn cut(value: &str) -> std::borrow::Cow<'_, str> {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => std::borrow::Cow::Borrowed(value),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &value[..end], value.len())),
+    }
+}
+
+/// A message of another parser (XML, TOML), which may echo a value of any length, cut as [`shown`] cuts
+/// values: its beginning and end are kept, the middle of a long one is left out.
+pub(crate) fn cut_message(message: &str) -> String {
+    cut_middle(message, 2 * SHOWN_CHARS, SHOWN_CHARS).into_owned()
+}
+
+/// Characters kept at the beginning and the end of a message: what every message of a [`SceneError`] is
+/// cut to when displayed, should a value have been echoed without [`shown`].
+const MESSAGE_HEAD: usize = 1400;
+const MESSAGE_TAIL: usize = 500;
+
+/// `text` with its middle left out when it is longer than `head + tail` characters (and a note of how
+/// much is left out in its place).
+fn cut_middle(text: &str, head: usize, tail: usize) -> std::borrow::Cow<'_, str> {
+    let chars = text.chars().count();
+    if chars <= 2 * (head + tail) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let start = text.char_indices().nth(head).map_or(text.len(), |(i, _)| i);
+    let end = text.char_indices().nth(chars - tail).map_or(text.len(), |(i, _)| i);
+    std::borrow::Cow::Owned(format!("{} …({} bytes left out)… {}", &text[..start], end - start, &text[end..]))
+}
+
+/// A message as errors display it: cut by [`cut_middle`] to [`MESSAGE_HEAD`] and [`MESSAGE_TAIL`].
+struct Message<'a>(&'a str);
+
+impl fmt::Display for Message<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&cut_middle(self.0, MESSAGE_HEAD, MESSAGE_TAIL))
+    }
+}
+
+/// The TOML parser's message for tables, arrays or dotted keys nested past its limit, with what it means.
+fn nesting_explained(message: String) -> String {
+    if message.ends_with("recursion limit exceeded") {
+        format!("{message} (tables, arrays or dotted keys nested more than the TOML parser's 80 levels)")
+    } else {
+        message
     }
 }
 
@@ -165,7 +229,7 @@ impl ErrorContext {
     pub(crate) fn toml_error(&self, error: &toml::de::Error) -> SceneError {
         let span: Option<Range<usize>> = error.span();
         let key = span.as_ref().and_then(|s| self.spans.path_at(s)).unwrap_or_default();
-        let message = error.message().trim().to_string();
+        let message = cut_message(error.message().trim());
         if self.places.is_some() {
             return self.key_error(&key, message);
         }
@@ -180,7 +244,27 @@ impl ErrorContext {
             file: self.file.clone(),
             line,
             column,
-            message: error.message().trim().to_string(),
+            message: nesting_explained(cut_message(error.message().trim())),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_values_and_messages_are_cut() {
+        assert_eq!(shown("a\"b"), "\"a\\\"b\"");
+        let long = "x".repeat(20 << 20);
+        let s = shown(&long);
+        assert_eq!(s, format!("\"{}\"… (20971520 bytes)", "x".repeat(SHOWN_CHARS)));
+        let m = cut_message(&format!("invalid value {long} here"));
+        assert!(m.len() < 400 && m.starts_with("invalid value xx") && m.ends_with("xx here") && m.contains("bytes left out"), "{m}");
+        assert_eq!(cut_message("short"), "short");
+        // Every message is cut when displayed, should a value have been echoed whole.
+        let e = SceneError::Key { file: "a.toml".into(), key: "k".into(), line: Some(3), message: format!("got {long}!") };
+        let shown = e.to_string();
+        assert!(shown.len() < 2000 && shown.starts_with("a.toml:3: k: got xxx") && shown.ends_with("xx!"), "{}", &shown[..100]);
     }
 }

@@ -24,6 +24,7 @@ mod film_io;
 mod filters;
 mod fuzz;
 mod hostile_io;
+mod hostile_xml;
 mod long_delta_chains;
 mod mesh_load;
 mod mitsuba_features;

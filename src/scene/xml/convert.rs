@@ -18,7 +18,7 @@ use super::tree::{Element, SearchPath};
 use super::super::note::{NoteKind, SceneNote};
 use super::values::{self, float_array, numbers, numbers_n, xyz, PROPERTY_TAGS};
 use super::super::desc::FilmDesc;
-use super::super::error::SceneError;
+use super::super::error::{cut, shown, SceneError};
 use super::super::spans::{join_index, join_key};
 
 /// Mitsuba's sampler types: caustica uses its own deterministic sampler for each (the expected image
@@ -59,6 +59,7 @@ pub(crate) fn convert(
         emitters: Vec::new(),
         integrator_seen: false,
         sampler_seen: false,
+        anonymous: HashMap::new(),
     };
     c.collect_ids(root)?;
     for el in &root.children {
@@ -66,7 +67,10 @@ pub(crate) fn convert(
             "integrator" => c.integrator(el)?,
             "sensor" => c.sensor(el)?,
             "bsdf" => {
-                let name = el.attr("id").map_or_else(|| format!("bsdf_line_{}", el.line), str::to_string);
+                let name = match el.attr("id") {
+                    Some(id) => id.to_string(),
+                    None => c.anonymous_name(el),
+                };
                 c.named_bsdf(el, &name)?;
             }
             "shape" => c.shape(el)?,
@@ -100,7 +104,7 @@ pub(crate) fn convert(
 }
 
 fn unsupported(el: &Element, parent: &Element) -> SceneError {
-    el.error(format!("<{}> is not supported inside {}", el.tag, parent.label()))
+    el.error(format!("<{}> is not supported inside {}", cut(&el.tag), parent.label()))
 }
 
 struct Converter<'a> {
@@ -118,6 +122,8 @@ struct Converter<'a> {
     emitters: Vec<Value>,
     integrator_seen: bool,
     sampler_seen: bool,
+    /// Line → how many top-level `<bsdf>`s without an id on that line (of any file) were named.
+    anonymous: HashMap<usize, usize>,
 }
 
 impl<'a> Converter<'a> {
@@ -126,13 +132,27 @@ impl<'a> Converter<'a> {
             if child.tag != "ref" {
                 if let Some(id) = child.attr("id") {
                     if self.ids.insert(id, child).is_some() {
-                        return Err(child.error(format!("id {id:?} is used twice")));
+                        return Err(child.error(format!("id {} is used twice", shown(id))));
                     }
                 }
             }
             self.collect_ids(child)?;
         }
         Ok(())
+    }
+
+    /// The name of a top-level `<bsdf>` without an id: `bsdf_line_<line>`, with `_2`, `_3` … for the
+    /// second and later on that line (in included files, or on one line) and past any id the scene uses.
+    fn anonymous_name(&mut self, el: &Element) -> String {
+        let base = format!("bsdf_line_{}", el.line);
+        let seen = self.anonymous.entry(el.line).or_insert(0);
+        loop {
+            *seen += 1;
+            let name = if *seen == 1 { base.clone() } else { format!("{base}_{seen}") };
+            if !self.ids.contains_key(name.as_str()) && !self.named_bsdfs.contains_key(&name) {
+                return name;
+            }
+        }
     }
 
     /// A note about element `el`, read differently from what it names.
@@ -167,7 +187,7 @@ impl<'a> Converter<'a> {
         match self.ids.get(id) {
             Some(el) if el.tag == tag => Ok(el),
             Some(el) => Err(r.error(format!("refers to a <{}>; a <{tag}> is expected here", el.tag))),
-            None => Err(r.error(format!("no element has id {id:?}"))),
+            None => Err(r.error(format!("no element has id {}", shown(id)))),
         }
     }
 
@@ -183,7 +203,7 @@ impl<'a> Converter<'a> {
     /// Inserts property `name` = `value` into `table` (at key path `key`), written by `child` of `plugin`.
     fn put(&mut self, table: &mut Table, key: &str, plugin: &Element, child: &Element, name: &str, value: Value) -> Result<(), SceneError> {
         if table.contains_key(name) {
-            return Err(child.error(format!("property \"{name}\" of {} is given twice", plugin.label())));
+            return Err(child.error(format!("property {} of {} is given twice", shown(name), plugin.label())));
         }
         self.places.insert(&join_key(key, name), Place::property(plugin, child, name));
         table.insert(name.to_string(), value);
@@ -256,7 +276,7 @@ impl<'a> Converter<'a> {
             Reading::Inner => {
                 let inner = el.children.iter().find(|c| c.tag == "integrator");
                 let Some(inner) = inner else {
-                    return Err(el.error(format!("integrator {kind:?} without a nested <integrator> renders no image caustica can make")));
+                    return Err(el.error(format!("integrator {} without a nested <integrator> renders no image caustica can make", shown(kind))));
                 };
                 for child in el.children.iter().filter(|c| c.tag != "integrator") {
                     self.note_ignored(el, child, "caustica renders the image of the nested integrator only");
@@ -266,7 +286,8 @@ impl<'a> Converter<'a> {
                 self.integrator(inner)
             }
             Reading::Refused(why) if !self.options.replace_integrator => Err(el.error(format!(
-                "integrator type {kind:?} is not supported: {why}; `--estimator pt|pm|mis` on the command line replaces it by caustica's path tracer"
+                "integrator type {} is not supported: {why}; `--estimator pt|pm|mis` on the command line replaces it by caustica's path tracer",
+                shown(kind)
             ))),
             Reading::Refused(_) => {
                 self.note(el, "replaced by caustica's path tracer with its default settings (--estimator)");
@@ -299,7 +320,8 @@ impl<'a> Converter<'a> {
                 self.places.insert(&join_key("integrator.caustics", rest), Place::property(el, child, name));
             } else if matches!(name, "samples_per_pixel" | "seed" | "caustics") {
                 return Err(child.error(format!(
-                    "unknown property \"{name}\" of {} (the sample count and seed are the <sampler>'s sample_count and seed)",
+                    "unknown property {} of {} (the sample count and seed are the <sampler>'s sample_count and seed)",
+                    shown(name),
                     el.label()
                 )));
             } else if name == "hide_emitters" {
@@ -361,7 +383,7 @@ impl<'a> Converter<'a> {
         el.check_attrs(PLUGIN_ATTRS)?;
         let kind = el.required("type")?;
         if kind != "hdrfilm" {
-            return Err(el.error(format!("film type {kind:?} is not supported (only \"hdrfilm\")")));
+            return Err(el.error(format!("film type {} is not supported (only \"hdrfilm\")", shown(kind))));
         }
         self.places.insert(key, Place::plugin(el));
         let mut table = Table::new();
@@ -381,7 +403,7 @@ impl<'a> Converter<'a> {
                     return Err(child.error(format!("{name} must be an <integer>")));
                 };
                 if crop[i].replace((v, child)).is_some() {
-                    return Err(child.error(format!("property \"{name}\" of {} is given twice", el.label())));
+                    return Err(child.error(format!("property {} of {} is given twice", shown(name), el.label())));
                 }
                 continue;
             }
@@ -413,7 +435,7 @@ impl<'a> Converter<'a> {
         el.check_attrs(PLUGIN_ATTRS)?;
         let kind = el.required("type")?;
         if !SAMPLER_TYPES.contains(&kind) {
-            return Err(el.error(format!("sampler type {kind:?} is not supported (one of {})", SAMPLER_TYPES.join(", "))));
+            return Err(el.error(format!("sampler type {} is not supported (one of {})", shown(kind), SAMPLER_TYPES.join(", "))));
         }
         let mut table = std::mem::take(&mut self.integrator);
         for child in &el.children {
@@ -429,7 +451,8 @@ impl<'a> Converter<'a> {
                 "seed" => "seed",
                 _ => {
                     return Err(child.error(format!(
-                        "unknown property \"{name}\" of {} (caustica reads sample_count and seed)",
+                        "unknown property {} of {} (caustica reads sample_count and seed)",
+                        shown(name),
                         el.label()
                     )))
                 }
@@ -445,7 +468,7 @@ impl<'a> Converter<'a> {
     /// A `<bsdf>` with an `id` (at the top level or nested) becomes the named bsdf `bsdf.<id>`.
     fn named_bsdf(&mut self, el: &Element, name: &str) -> Result<(), SceneError> {
         if self.named_bsdfs.contains_key(name) {
-            return Err(el.error(format!("a second bsdf named {name:?}")));
+            return Err(el.error(format!("a second bsdf named {}", shown(name))));
         }
         let key = join_key("bsdf", name);
         let table = self.bsdf_table(el, &key)?;
@@ -462,7 +485,7 @@ impl<'a> Converter<'a> {
             return match self.ids.get(id).map(|e| e.tag.as_str()) {
                 Some("bsdf") => Ok(Value::String(id.to_string())),
                 Some(tag) => Err(el.error(format!("refers to a <{tag}>; only BSDFs can be referenced here"))),
-                None => Err(el.error(format!("no element has id {id:?}"))),
+                None => Err(el.error(format!("no element has id {}", shown(id)))),
             };
         }
         if let Some(id) = el.attr("id") {

@@ -66,6 +66,7 @@
 //! **Errors.** Anything not supported — an element, a plugin type, a property, an attribute, a `$name`
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.
 
+mod bounds;
 mod cie1931;
 mod convert;
 mod ignored;
@@ -99,8 +100,7 @@ pub(crate) fn read_str(
     options: ConvertOptions,
 ) -> Result<(toml::Table, Places, Vec<SceneNote>), SceneError> {
     let mut search = tree::SearchPath::new(base_dir);
-    let mut root = tree::parse_scene(text, name, &mut search, 0)?;
-    params::substitute(&mut root, params, name)?;
+    let mut root = tree::read_tree(text, name, &mut search, params)?;
     spectrum::resolve_files(&mut root, &search);
     let unsupported = unsupported::scan(&root, options);
     if !unsupported.is_empty() {

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::rc::Rc;
 
 use super::tree::Element;
+use super::super::error::shown;
 
 /// An XML element that wrote a key, and how errors name it.
 #[derive(Clone, Debug)]
@@ -24,7 +25,7 @@ impl Place {
 
     /// Property `name` of plugin `plugin`, written by element `el`.
     pub(crate) fn property(plugin: &Element, el: &Element, name: &str) -> Self {
-        Self { file: el.file.clone(), line: el.line, label: format!("{} property \"{name}\"", plugin.label()) }
+        Self { file: el.file.clone(), line: el.line, label: format!("{} property {}", plugin.label(), shown(name)) }
     }
 }
 

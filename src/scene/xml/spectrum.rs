@@ -38,7 +38,7 @@ use super::cie1931::{
 };
 use super::tree::{Element, SearchPath};
 use super::values::float_array;
-use super::super::error::SceneError;
+use super::super::error::{shown, SceneError};
 
 /// How the plugin that reads a colour property uses it: the `emitter` and `unbounded` flags of Mitsuba's
 /// `Properties::get_texture_impl`.
@@ -82,8 +82,9 @@ pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, Sc
                             emitted colour as <rgb>"
                 .to_string(),
             _ => format!(
-                "spectrum plugins (type=\"{kind}\") are not supported; give the colour as <rgb> or as \
-                 <spectrum value=\"…\"> (one value or wavelength:value pairs) or filename=\"….spd\""
+                "spectrum plugins (type={}) are not supported; give the colour as <rgb> or as \
+                 <spectrum value=\"…\"> (one value or wavelength:value pairs) or filename=\"….spd\"",
+                shown(kind)
             ),
         }));
     }
@@ -128,7 +129,7 @@ pub(crate) fn resolve_files(el: &mut Element, search: &SearchPath) {
 fn number(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("{s:?} is not a finite number")),
+        _ => Err(format!("{} is not a finite number", shown(s))),
     }
 }
 
@@ -145,7 +146,7 @@ pub(crate) fn parse_value(text: &str) -> Result<Spectrum, String> {
     for token in tokens {
         match token.split(':').collect::<Vec<_>>().as_slice() {
             [w, v] => pairs.push((number(w)?, number(v)?)),
-            _ => return Err(format!("{token:?} is not a wavelength:value pair (or the spectrum's one value)")),
+            _ => return Err(format!("{} is not a wavelength:value pair (or the spectrum's one value)", shown(token))),
         }
     }
     sampled(pairs)
@@ -164,7 +165,7 @@ pub(crate) fn parse_file(text: &str) -> Result<Spectrum, (usize, String)> {
         last = i + 1;
         match fields.as_slice() {
             [w, v] => pairs.push((number(w).map_err(|m| (i + 1, m))?, number(v).map_err(|m| (i + 1, m))?)),
-            _ => return Err((i + 1, format!("{:?} is not a line \"wavelength value\"", line.trim()))),
+            _ => return Err((i + 1, format!("{} is not a line \"wavelength value\"", shown(line.trim())))),
         }
     }
     sampled(pairs).map_err(|m| (last.max(1), m))

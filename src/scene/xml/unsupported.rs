@@ -13,6 +13,7 @@ use super::ignored;
 use super::integrators::{self, Reading};
 use super::tree::Element;
 use super::values::PROPERTY_TAGS;
+use super::super::error::{cut, shown};
 use super::super::plugins::{self, Role};
 
 /// One thing caustica cannot render.
@@ -113,8 +114,8 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
     };
     let Some(keys) = keys else {
         let message = match MITSUBA_TYPES.iter().find(|(t, k, ..)| *t == tag && *k == kind) {
-            Some((.., what, when)) => format!("{tag} type \"{kind}\" is {when}; Mitsuba renders {what}"),
-            None => format!("{tag} type \"{kind}\" is not a Mitsuba plugin caustica renders"),
+            Some((.., what, when)) => format!("{tag} type {} is {when}; Mitsuba renders {what}", shown(kind)),
+            None => format!("{tag} type {} is not a Mitsuba plugin caustica renders", shown(kind)),
         };
         push(found, el, message);
         return;
@@ -124,7 +125,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         if is_property {
             let name = child.attr("name").unwrap_or_default();
             if !keys.contains(&name) && ignored::why(el, name).is_none() {
-                push(found, child, plugins::not_applicable(name, tag, kind, &keys));
+                push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
             }
         } else {
             visit(child, options, found);
@@ -141,7 +142,7 @@ fn integrator(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported
                 let read = matches!(name, "max_depth" | "rr_depth" | "hide_emitters") || name.starts_with(CAUSTICS_PREFIX);
                 if !read && ignored::why(el, name).is_none() {
                     let keys = ["max_depth", "rr_depth", "hide_emitters", "caustics_*"];
-                    push(found, child, plugins::not_applicable(name, "integrator", kind, &keys));
+                    push(found, child, plugins::not_applicable(&cut(name), "integrator", &cut(kind), &keys));
                 }
             }
         }
@@ -151,7 +152,7 @@ fn integrator(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported
             }
         }
         Reading::Refused(why) if !options.replace_integrator => {
-            push(found, el, format!("integrator type \"{kind}\" is not supported: {why}; `--estimator pt|pm|mis` replaces it by caustica's path tracer"));
+            push(found, el, format!("integrator type {} is not supported: {why}; `--estimator pt|pm|mis` replaces it by caustica's path tracer", shown(kind)));
         }
         Reading::Refused(_) => {}
     }

@@ -59,15 +59,15 @@
 //!   `Texture2D` in `src/librender/texture.cpp`); Mitsuba 3 composes the other way round and shifts by
 //!   `scale·offset` when both are given.
 //!
-//! **Not upgraded.** Anything written with a `$parameter` where the rule needs its value: a `name` with a
-//! `$` keeps its spelling, an `<srgb>` or `#` colour with a `$` stays (and is refused). Mitsuba 3
-//! substitutes parameters before it upgrades; here the upgrade runs per file, before the parameters of all
-//! files are known. 0.6's `intent` attribute of colours stays (Mitsuba 3 refuses it, and so does caustica).
+//! **Parameters** are substituted before the upgrade, as Mitsuba 3 does: the tree builder substitutes each
+//! element as it reads it (`params`), so a `name` or colour written with a `$parameter` is upgraded by its
+//! value. **Not upgraded:** 0.6's `intent` attribute of colours stays (Mitsuba 3 refuses it, and so does
+//! caustica).
 //!
 //! Upgraded elements keep their file and line; an element the upgrade adds (`to_uv`, `material`) has the
 //! place of the element(s) it stands for, so errors point into the original file (naming the 3.x names).
 
-use super::super::error::SceneError;
+use super::super::error::{shown, SceneError};
 use super::tree::Element;
 
 /// Files of an older version are upgraded (Mitsuba 3: `version < util::Version(2, 0, 0)`).
@@ -99,7 +99,8 @@ pub(crate) fn upgrade_file(root: &mut Element) -> Result<(), SceneError> {
     let text = root.required("version")?;
     let version = Version::parse(text).ok_or_else(|| {
         root.error(format!(
-            "scene version {text:?} is not a version number (three numbers, e.g. \"3.0.0\"; files of Mitsuba 0.x, \"0.6.0\", are upgraded)"
+            "scene version {} is not a version number (three numbers, e.g. \"3.0.0\"; files of Mitsuba 0.x, \"0.6.0\", are upgraded)",
+            shown(text)
         ))
     })?;
     if version < FIRST_CURRENT {
@@ -116,9 +117,7 @@ fn upgrade(el: &mut Element) {
     }
     if el.tag != "default" {
         if let Some((_, name)) = el.attrs.iter_mut().find(|(n, _)| n == "name") {
-            if !name.contains('$') {
-                *name = snake_case(name);
-            }
+            *name = snake_case(name);
         }
     }
     colour(el);
@@ -189,7 +188,7 @@ fn colour(el: &mut Element) {
     }
     let Some(value) = el.attr("value") else { return };
     let hex = value.trim().starts_with('#');
-    if !(srgb || hex) || value.contains('$') {
+    if !(srgb || hex) {
         return;
     }
     let Some(mut rgb) = colour_numbers(value) else { return };
@@ -234,8 +233,8 @@ fn srgb_to_linear(v: f64) -> f64 {
 
 /// The `<float>` children `uoffset`, `voffset`, `uscale`, `vscale` of `el` → `<transform name="to_uv">`
 /// with `<scale x="uscale" y="vscale"/>` (if a scale is given) then `<translate x="uoffset"
-/// y="voffset"/>` (if an offset is given); absent ones are 1 and 0. The values are copied as written (a
-/// `$parameter` is substituted later). A second element of the same name stays, to be refused.
+/// y="voffset"/>` (if an offset is given); absent ones are 1 and 0. The values are copied as written. A
+/// second element of the same name stays, to be refused.
 fn uv_transform(el: &mut Element) {
     let mut found: [Option<Element>; 4] = Default::default();
     let mut kept = Vec::with_capacity(el.children.len());
@@ -266,12 +265,16 @@ mod tests {
     use std::collections::BTreeMap;
     use std::path::Path;
 
-    use super::super::tree::{parse_scene, Element};
+    use super::super::tree::{read_tree, Element};
     use super::*;
+
+    fn params() -> BTreeMap<String, String> {
+        BTreeMap::new()
+    }
 
     /// The scene `xml` (read by the parser, upgraded) written back compactly, without the root's version.
     fn read(xml: &str) -> String {
-        let root = parse_scene(xml, Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), 0).unwrap_or_else(|e| panic!("{e}"));
+        let root = read_tree(xml, Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), &params()).unwrap_or_else(|e| panic!("{e}"));
         root.children.iter().map(show).collect()
     }
 
@@ -301,7 +304,7 @@ mod tests {
             let out = read(&format!("<scene version=\"{version}\">{body}</scene>"));
             assert!(out.contains(&format!("name=\"{name}\"")), "{version}: {out}");
         }
-        let e = parse_scene("<scene version=\"3.0\"/>", Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), 0).err().expect("refused");
+        let e = read_tree("<scene version=\"3.0\"/>", Path::new("t.xml"), &mut super::super::tree::SearchPath::new(Path::new(".")), &params()).err().expect("refused");
         assert!(e.to_string().contains("\"3.0\" is not a version number"), "{e}");
     }
 
@@ -318,19 +321,19 @@ mod tests {
         assert_eq!(snake_case("Radius"), "Radius");
         assert_eq!(snake_case("max_depth"), "max_depth");
         let out = v05(
-            "<default name=\"myCount\" value=\"4\"/>\
+            "<default name=\"myCount\" value=\"4\"/><default name=\"someName\" value=\"innerRadius\"/>\
              <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/><string name=\"fovAxis\" value=\"smallerOne\"/>\
              <transform name=\"toWorld\"><translate x=\"1\"/></transform>\
              <sampler type=\"ldsampler\"><integer name=\"sampleCount\" value=\"$myCount\"/></sampler></sensor>\
              <shape type=\"sphere\"><ref name=\"interiorMedium\" id=\"fogMedium\"/><float name=\"$someName\" value=\"1\"/></shape>",
         );
+        // The parameters' names keep their case; they are substituted before the upgrade, as Mitsuba 3 does.
         assert_eq!(
             out,
-            "<default name=\"myCount\" value=\"4\"/>\
-             <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/><string name=\"fov_axis\" value=\"smallerOne\"/>\
+            "<sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/><string name=\"fov_axis\" value=\"smallerOne\"/>\
              <transform name=\"to_world\"><translate x=\"1\"/></transform>\
-             <sampler type=\"ldsampler\"><integer name=\"sample_count\" value=\"$myCount\"/></sampler></sensor>\
-             <shape type=\"sphere\"><ref name=\"interior_medium\" id=\"fogMedium\"/><float name=\"$someName\" value=\"1\"/></shape>"
+             <sampler type=\"ldsampler\"><integer name=\"sample_count\" value=\"4\"/></sampler></sensor>\
+             <shape type=\"sphere\"><ref name=\"interior_medium\" id=\"fogMedium\"/><float name=\"inner_radius\" value=\"1\"/></shape>"
         );
     }
 
@@ -352,14 +355,14 @@ mod tests {
     #[test]
     fn uv_offsets_and_scales_become_to_uv_scale_then_translate() {
         let out = v05(
-            "<texture type=\"bitmap\"><float name=\"uscale\" value=\"2\"/><string name=\"filename\" value=\"a.png\"/>\
-             <float name=\"voffset\" value=\"$v\"/></texture>\
+            "<default name=\"v\" value=\"0.25\"/><texture type=\"bitmap\"><float name=\"uscale\" value=\"2\"/>\
+             <string name=\"filename\" value=\"a.png\"/><float name=\"voffset\" value=\"$v\"/></texture>\
              <texture type=\"bitmap\"><float name=\"uoffset\" value=\"0.5\"/></texture>",
         );
         assert_eq!(
             out,
             "<texture type=\"bitmap\"><string name=\"filename\" value=\"a.png\"/>\
-             <transform name=\"to_uv\"><scale x=\"2\" y=\"1\"/><translate x=\"0\" y=\"$v\"/></transform></texture>\
+             <transform name=\"to_uv\"><scale x=\"2\" y=\"1\"/><translate x=\"0\" y=\"0.25\"/></transform></texture>\
              <texture type=\"bitmap\"><transform name=\"to_uv\"><translate x=\"0.5\" y=\"0\"/></transform></texture>"
         );
         // Mitsuba 3 files keep them (and the later stages refuse them).
@@ -381,7 +384,7 @@ mod tests {
              <bsdf type=\"diffuse\"><srgb name=\"reflectance\" value=\"0.5\"/></bsdf>\
              <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"#ff8000\"/></bsdf>\
              <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.25 0.5 1\"/></bsdf>\
-             <bsdf type=\"diffuse\"><srgb name=\"reflectance\" value=\"$c\"/></bsdf>\
+             <default name=\"c\" value=\"#ff8000\"/><bsdf type=\"diffuse\"><srgb name=\"reflectance\" value=\"$c\"/></bsdf>\
              <bsdf type=\"diffuse\"><srgb name=\"reflectance\" value=\"#ff80\"/></bsdf>",
         );
         let lin = |v: f64| ((v + 0.055) / 1.055).powf(2.4);
@@ -391,7 +394,7 @@ mod tests {
             format!("<rgb name=\"reflectance\" value=\"{}\"/>", lin(0.5)),
             format!("<rgb name=\"reflectance\" value=\"1, {}, 0\"/>", 128.0 / 255.0),
             "<rgb name=\"reflectance\" value=\"0.25 0.5 1\"/>".to_string(),
-            "<srgb name=\"reflectance\" value=\"$c\"/>".to_string(),
+            format!("<rgb name=\"reflectance\" value=\"1, {}, 0\"/>", lin(128.0 / 255.0)),
             "<srgb name=\"reflectance\" value=\"#ff80\"/>".to_string(),
         ];
         let expected: String = expected.iter().map(|c| format!("<bsdf type=\"diffuse\">{c}</bsdf>")).collect();
@@ -442,7 +445,7 @@ mod tests {
         std::fs::write(dir.join("new.xml"), new).expect("write");
         let main = |version: &str, include: &str| {
             let text = format!("<scene version=\"{version}\"><include filename=\"{include}\"/><float name=\"someValue\" value=\"1\"/></scene>");
-            let root = parse_scene(&text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), 0).unwrap_or_else(|e| panic!("{e}"));
+            let root = read_tree(&text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), &params()).unwrap_or_else(|e| panic!("{e}"));
             root.children.iter().map(show).collect::<String>()
         };
         assert_eq!(
@@ -455,7 +458,7 @@ mod tests {
         );
         // The included file's elements keep their file and line.
         let text = "<scene version=\"3.0.0\">\n<include filename=\"old.xml\"/>\n</scene>";
-        let root = parse_scene(text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), 0).unwrap_or_else(|e| panic!("{e}"));
+        let root = read_tree(text, &dir.join("main.xml"), &mut super::super::tree::SearchPath::new(&dir), &params()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((root.children[0].file.as_path(), root.children[0].line), (dir.join("old.xml").as_path(), 1));
         std::fs::remove_dir_all(&dir).ok();
     }

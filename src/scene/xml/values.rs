@@ -7,7 +7,7 @@ use toml::Value;
 
 use super::spectrum;
 use super::tree::Element;
-use super::super::error::SceneError;
+use super::super::error::{shown, SceneError};
 
 /// The tags of property elements.
 pub(crate) const PROPERTY_TAGS: &[&str] = &["float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector"];
@@ -16,7 +16,7 @@ pub(crate) const PROPERTY_TAGS: &[&str] = &["float", "integer", "boolean", "stri
 pub(crate) fn numbers(el: &Element, attr: &str, text: &str) -> Result<Vec<f64>, SceneError> {
     text.split(|c: char| c == ',' || c.is_whitespace())
         .filter(|s| !s.is_empty())
-        .map(|s| s.parse::<f64>().map_err(|_| el.error(format!("attribute `{attr}`: {s:?} is not a number"))))
+        .map(|s| s.parse::<f64>().map_err(|_| el.error(format!("attribute `{attr}`: {} is not a number", shown(s)))))
         .collect()
 }
 
@@ -69,7 +69,7 @@ pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, Sc
     Ok(match el.tag.as_str() {
         "float" => Value::Float(numbers_n(el, "value", 1)?[0]),
         "integer" => Value::Integer(
-            text.parse::<i64>().map_err(|_| el.error(format!("attribute `value`: {text:?} is not an integer")))?,
+            text.parse::<i64>().map_err(|_| el.error(format!("attribute `value`: {} is not an integer", shown(text))))?,
         ),
         // Any case, as Mitsuba (`string::iequals`, src/core/parser.cpp): Blender's exporter writes "False".
         "boolean" => Value::Boolean(if text.eq_ignore_ascii_case("true") {
@@ -77,7 +77,7 @@ pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, Sc
         } else if text.eq_ignore_ascii_case("false") {
             false
         } else {
-            return Err(el.error(format!("attribute `value`: {text:?} is not true or false")));
+            return Err(el.error(format!("attribute `value`: {} is not true or false", shown(text))));
         }),
         "string" => Value::String(text.to_string()),
         "rgb" => {
