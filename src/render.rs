@@ -18,6 +18,7 @@
 
 pub mod memory;
 pub mod part;
+pub mod round;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -26,11 +27,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::accel::Accel;
-use crate::film::{Film, FilmError, TileBuffer};
-use crate::integrator::{CausticEstimator, EyePath, GatherBuffers, GatherMemory, GatherScratch, PathStats, PathTracer, Q1Range, Wave};
-use crate::math::{Vec2, Vec3};
+use crate::film::{Film, FilmError};
+use self::round::{next_round_spp, trace_round, RoundContext, TileState};
+use crate::integrator::{CausticEstimator, PathStats, PathTracer, Q1Range};
 use crate::photon::{trace_photons, KdTreeError, PhotonBudget, PhotonMap, PhotonPassStats};
-use crate::sampler::Sampler;
 use crate::scene::settings::defaults;
 use crate::scene::{Estimator, Scene};
 
@@ -132,7 +132,10 @@ pub struct SkippedPhase {
 /// Figures after each pass, for progress lines and error-vs-time logs.
 #[derive(Clone, Debug, Serialize)]
 pub struct PassInfo {
+    /// The pass the image is at (from 1): counting the one under way when a round of it ended.
     pub pass: u32,
+    /// Rounds finished so far, over all passes (a round adds samples to every pixel: [`round`]).
+    pub round: u32,
     /// Seconds of rendering so far (photon passes and eye passes), *excluding* the time spent in the
     /// `on_pass` callbacks, so that error-vs-time curves measure the renderer, not their own evaluation.
     pub seconds: f64,
@@ -286,6 +289,7 @@ pub fn render_share(
     let mut spp_done: u32 = 0;
     let mut pass: u32 = 0;
     let mut callback_seconds = 0.0f64;
+    let mut rounds: u32 = 0;
     loop {
         let this_pass = match settings.time_limit {
             Some(_) => pass_spp,
@@ -328,127 +332,102 @@ pub fn render_share(
         let caustics = CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
             .with_area_scale(area_scale_for_pass(pass));
         let tracer = PathTracer::new(scene, accel, caustics, this_pass as f32);
+        let ctx = RoundContext { scene, tracer: &tracer, seed: settings.seed, width, pass_start: spp_done };
         // With a time limit the eye pass stops at the limit, from the second pass on (the first always
         // completes, so that every pixel has samples): tiles not started by then are left out.
         let deadline = match settings.time_limit {
             Some(limit) if pass > 0 => Some(Instant::now() + Duration::from_secs_f64((limit - (start.elapsed().as_secs_f64() - callback_seconds)).max(0.0))),
             _ => None,
         };
-        let t_pass = Instant::now();
-        let results: Vec<Option<(TileBuffer, PathStats)>> = tiles
-            .par_iter()
-            .map(|tile| {
-                if cancel.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
-                    return None;
-                }
-                // Sample `s` of pixel (x, y): its camera ray, its sampler (past the pixel position) and its
-                // position in the pixel (uniform, as Mitsuba's `render_sample`; where a wide filter weighs it).
-                let camera_sample = |x: u32, y: u32, s: u32| {
-                    let mut sampler = Sampler::for_pixel(settings.seed, u64::from(y) * width + u64::from(x), u64::from(s));
-                    let j = sampler.next_2d();
-                    (scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y), sampler, j)
-                };
-                let mut buf = film.tile_buffer(*tile);
-                let mut ps = PathStats::default();
-                // The gather's buffers, and its memory of recent searches (`GatherScratch`).
-                let (mut buffers, mut memory) = (GatherBuffers::default(), GatherMemory::default());
-                // The tile's pixels are traced one wave per sample index (`PathTracer::trace_wave`: their
-                // rays in Embree packets), on one thread, in the same order in every run.
-                let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1).flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y))).collect();
-                let mut wave = Wave::default();
-                let mut paths = Vec::with_capacity(pixels.len());
-                // Per pixel, the sum and count of its finite samples so far in this pass.
-                let mut sums = vec![(Vec3::ZERO, 0u32); pixels.len()];
-                // Per pixel, the current sample's position in the pixel.
-                let mut offsets = vec![Vec2::ZERO; pixels.len()];
-                // With a photon map the gather's roulette reads earlier samples (method.md §3.1): the mean
-                // of the pixel's finite samples so far in this pass (until it has one, the previous pixel's),
-                // and the memory of recent searches. So a pixel's first sample runs alone, in pixel order
-                // on the tile's memory, as one path at a time would; then each pixel keeps a copy of that
-                // memory (~190 bytes), and its later samples' searches follow one another in it as they did
-                // when a pixel's samples ran one after another (without this, a wave's searches run a pixel
-                // apart: +46 % searches on teapot-glossy). Without a photon map nothing is read.
-                let reads = tracer.reads_earlier_samples();
-                // A sample's radiance into the film and, where finite, into its pixel's sum.
-                let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), offset: Vec2, l: Vec3| {
-                    if l.is_finite() {
-                        *sum = (sum.0 + l, sum.1 + 1);
+        // The pass's eye samples in rounds over the whole frame ([`round`]); a time-limited pass is one.
+        let mut states: Vec<TileState> = tiles.iter().map(|&tile| TileState::new(film, tile)).collect();
+        let mut round_done: u32 = 0;
+        let mut last_round: Option<(u32, f64)> = None;
+        let mut merge_seconds = 0.0f64;
+        let mut cut = false;
+        loop {
+            let round_spp = if settings.time_limit.is_some() { this_pass } else { next_round_spp(this_pass, round_done, last_round, merge_seconds) };
+            let (from, to) = (spp_done + round_done, spp_done + round_done + round_spp);
+            let t_round = Instant::now();
+            let results: Vec<Option<PathStats>> = states
+                .par_iter_mut()
+                .map(|state| {
+                    if cancel.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
+                        return None;
                     }
-                    buf.add_at(x, y, offset, l);
-                };
-                let mut memories = Vec::with_capacity(if reads { pixels.len() } else { 1 });
-                let first = if reads {
-                    let mut mean = Vec3::ZERO;
-                    for (&(x, y), sum) in pixels.iter().zip(&mut sums) {
-                        let (ray, sampler, offset) = camera_sample(x, y, spp_done);
-                        let l = tracer.li(ray, sampler, mean, &mut ps, &mut GatherScratch::new(&mut buffers, &mut memory));
-                        record((x, y), sum, offset, l);
-                        if sum.1 > 0 {
-                            mean = sum.0;
-                        }
-                        memories.push(memory);
-                    }
-                    1
-                } else {
-                    memories.push(memory);
-                    0
-                };
-                for s in spp_done + first..spp_done + this_pass {
-                    paths.clear();
-                    let mut mean = Vec3::ZERO;
-                    paths.extend(pixels.iter().zip(&sums).zip(&mut offsets).map(|((&(x, y), &(sum, n)), offset)| {
-                        if n > 0 {
-                            mean = sum / n as f32;
-                        }
-                        let (ray, sampler, j) = camera_sample(x, y, s);
-                        *offset = j;
-                        EyePath::new(ray, sampler, mean)
-                    }));
-                    tracer.trace_wave(&mut paths, &mut wave, &mut ps, &mut buffers, &mut memories);
-                    for (((&pixel, sum), path), &offset) in pixels.iter().zip(&mut sums).zip(&paths).zip(&offsets) {
-                        record(pixel, sum, offset, path.radiance());
+                    let ps = trace_round(&ctx, state, from, to);
+                    on_tile(state.tile().area() * u64::from(round_spp));
+                    Some(ps)
+                })
+                .collect();
+            let round_seconds = t_round.elapsed().as_secs_f64();
+            // A round left unfinished by Ctrl-C is not merged: the film stays whole, at the rounds before.
+            // A (one-round) pass cut by the time limit keeps its finished tiles (the film counts samples per
+            // pixel, or their filter weights, so every pixel stays the weighted mean of the samples that
+            // reached it); it is the last one, reported to `on_pass` if any tile finished, and its samples
+            // are not counted in `spp` (they cover only some pixels).
+            let unfinished = results.iter().any(Option::is_none);
+            let finished_tiles = results.iter().flatten().count();
+            let cancelled = unfinished && cancel.load(Ordering::Relaxed);
+            let t_merge = Instant::now();
+            if !cancelled {
+                let more = !unfinished && round_done + round_spp < this_pass;
+                for (state, ps) in states.iter_mut().zip(&results) {
+                    if let Some(ps) = ps {
+                        state.merge_into(film, more)?;
+                        stats.rays_traced += ps.rays;
+                        stats.knn_queries += ps.knn_queries;
+                        stats.knn_area_queries += ps.knn_area_queries;
+                        q1_range.merge(&ps.q1);
                     }
                 }
-                on_tile(u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * u64::from(this_pass));
-                Some((buf, ps))
-            })
-            .collect();
-        // Tiles left out (Ctrl-C, or the time limit) come back as None; finished tiles are kept (the film
-        // counts samples per pixel, or their filter weights, so every pixel stays the weighted mean of the
-        // samples that reached it). Ctrl-C marks the render partial; a pass cut by the time limit is the
-        // last one, reported to `on_pass` if any tile finished, and its samples are not counted in `spp`
-        // (they cover only some pixels).
-        let unfinished = results.iter().any(Option::is_none);
-        let finished_tiles = results.iter().flatten().count();
-        for (buf, ps) in results.into_iter().flatten() {
-            film.merge_tile(&buf)?;
-            stats.rays_traced += ps.rays;
-            stats.knn_queries += ps.knn_queries;
-            stats.knn_area_queries += ps.knn_area_queries;
-            q1_range.merge(&ps.q1);
+            }
+            merge_seconds = t_merge.elapsed().as_secs_f64();
+            stats.mis_q1_range = q1_range.get();
+            stats.seconds_render += t_round.elapsed().as_secs_f64();
+            if cancelled || (unfinished && finished_tiles == 0) {
+                stats.partial |= cancelled;
+                cut = true;
+                break;
+            }
+            if !unfinished {
+                round_done += round_spp;
+            }
+            last_round = Some((round_spp, round_seconds));
+            rounds += 1;
+            let pass_over = round_done == this_pass || unfinished;
+            if pass_over {
+                // The pass is done (or cut by the time limit): counted before it is reported.
+                spp_done += round_done;
+                round_done = 0;
+                pass += 1;
+                stats.passes_rendered += 1;
+            }
+            let info = PassInfo {
+                pass: pass + u32::from(round_done > 0),
+                round: rounds,
+                seconds: start.elapsed().as_secs_f64() - callback_seconds,
+                spp: spp_done + round_done,
+                photons_emitted: stats.photons_emitted,
+                photons_stored: stats.photons_stored,
+            };
+            let t_callback = Instant::now();
+            on_pass(film, &info);
+            callback_seconds += t_callback.elapsed().as_secs_f64();
+            if unfinished {
+                cut = true;
+            }
+            if pass_over {
+                break;
+            }
         }
-        stats.mis_q1_range = q1_range.get();
-        stats.seconds_render += t_pass.elapsed().as_secs_f64();
-        if unfinished && (cancel.load(Ordering::Relaxed) || finished_tiles == 0) {
-            stats.partial |= cancel.load(Ordering::Relaxed);
-            break;
-        }
-        if !unfinished {
-            spp_done += this_pass;
-        }
-        pass += 1;
-        stats.passes_rendered += 1;
-        let info = PassInfo {
-            pass,
-            seconds: start.elapsed().as_secs_f64() - callback_seconds,
-            spp: spp_done,
-            photons_emitted: stats.photons_emitted,
-            photons_stored: stats.photons_stored,
-        };
-        let t_callback = Instant::now();
-        on_pass(film, &info);
-        callback_seconds += t_callback.elapsed().as_secs_f64();
-        if unfinished {
+        if cut {
+            // Ctrl-C after some rounds of the pass: they are whole frames, counted in spp and passes.
+            if round_done > 0 {
+                spp_done += round_done;
+                pass += 1;
+                stats.passes_rendered += 1;
+            }
             break;
         }
         if let Some(limit) = settings.time_limit {

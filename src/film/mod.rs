@@ -146,6 +146,19 @@ impl PixelSum {
         self.count += o.count;
     }
 
+    /// Adds what a tile buffer's sums gained since `before`, an earlier copy of them: the RGB exactly (so
+    /// that the film holds the exact sum of the latest sums, as if they had been added once), the
+    /// luminance² sum and the count by f64 and integer differences.
+    #[inline]
+    fn add_samples_since(&mut self, o: &SampleSum, before: &SampleSum) {
+        for ((s, v), b) in self.rgb.iter_mut().zip(o.rgb).zip(before.rgb) {
+            s.add_f64(v);
+            s.add_f64(-b);
+        }
+        self.lum_sq += o.lum_sq - before.lum_sq;
+        self.count += o.count - before.count;
+    }
+
     /// Adds another pixel's sums (RGB exactly).
     #[inline]
     pub fn merge(&mut self, o: &PixelSum) {
@@ -182,6 +195,16 @@ impl PixelWeight {
         self.weight_sq += o.weight_sq;
         self.wsq_lum += o.wsq_lum;
         self.wsq_lum_sq += o.wsq_lum_sq;
+    }
+
+    /// [`PixelSum::add_samples_since`] for the filter's sums (the weight exactly).
+    #[inline]
+    fn add_samples_since(&mut self, o: &WeightSum, before: &WeightSum) {
+        self.weight.add_f64(o.weight);
+        self.weight.add_f64(-before.weight);
+        self.weight_sq += o.weight_sq - before.weight_sq;
+        self.wsq_lum += o.wsq_lum - before.wsq_lum;
+        self.wsq_lum_sq += o.wsq_lum_sq - before.wsq_lum_sq;
     }
 
     /// Adds another pixel's sums (the weight exactly).
@@ -515,6 +538,41 @@ impl Film {
         }
         self.non_finite.nan += buffer.non_finite.nan;
         self.non_finite.inf += buffer.non_finite.inf;
+        Ok(())
+    }
+
+    /// Adds what `buffer` gained since `before`, an earlier copy of the same buffer that was merged then
+    /// (`None`: nothing was, and this is [`Film::merge_tile`]). The render merges a tile's buffer after
+    /// every round of a pass (`render::round`), so that the film is whole between rounds, while the buffer
+    /// keeps adding the pass's samples in their order: the RGB sums (and filter weights) are added and
+    /// subtracted exactly, so after the last round the film holds exactly what one merge of the final
+    /// buffer would give — the same image bit for bit. The luminance² and `Σ w²` sums (variance only) are
+    /// f64 differences and may differ from one merge in the last bits. Errors (and changes nothing) as
+    /// [`Film::merge_tile`] does, or if `before` is not a copy of a buffer of the same tile and filter.
+    pub fn merge_tile_since(&mut self, buffer: &TileBuffer, before: Option<&TileBuffer>) -> Result<(), FilmError> {
+        let Some(before) = before else { return self.merge_tile(buffer) };
+        let r = buffer.region;
+        if !self.crop.contains_rect(&buffer.tile) || !self.crop.contains_rect(&r) || before.tile != buffer.tile || before.region != r {
+            return Err(FilmError::TileOutsideCrop { tile: buffer.tile, crop: self.crop });
+        }
+        if buffer.filter != self.filter || before.filter != self.filter {
+            return Err(FilmError::FilterMismatch { film: self.filter, other: buffer.filter });
+        }
+        let rw = r.width() as usize;
+        for (row, y) in (r.y0..r.y1).enumerate() {
+            let start = self.crop.index(r.x0, y).unwrap_or_default();
+            let range = row * rw..(row + 1) * rw;
+            for ((d, s), b) in self.pixels[start..start + rw].iter_mut().zip(&buffer.pixels[range.clone()]).zip(&before.pixels[range.clone()]) {
+                d.add_samples_since(s, b);
+            }
+            if !self.filter.is_box() {
+                for ((d, s), b) in self.weights[start..start + rw].iter_mut().zip(&buffer.weights[range.clone()]).zip(&before.weights[range]) {
+                    d.add_samples_since(s, b);
+                }
+            }
+        }
+        self.non_finite.nan += buffer.non_finite.nan - before.non_finite.nan;
+        self.non_finite.inf += buffer.non_finite.inf - before.non_finite.inf;
         Ok(())
     }
 
