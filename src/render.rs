@@ -51,6 +51,8 @@ pub struct RenderSettings {
     pub photons: PhotonBudget,
     pub knn: u32,
     pub max_radius: f32,
+    /// A round's intended length in seconds ([`round`]).
+    pub round_seconds: f64,
 }
 
 /// Exponent `a` of the progressive area schedule (method.md §6): Knaus & Zwicker's α = 2/3, which
@@ -89,6 +91,7 @@ impl RenderSettings {
             },
             knn: caus.knn,
             max_radius: caus.max_radius.unwrap_or_else(|| defaults::max_radius(scene.bounds.bounding_sphere().1)),
+            round_seconds: defaults::ROUND_SECONDS,
         }
     }
 
@@ -142,6 +145,9 @@ pub struct PassInfo {
     pub spp: u32,
     pub photons_emitted: u64,
     pub photons_stored: u64,
+    /// The render's statistics so far (`spp`, `passes` and `rounds` those of the film as it is).
+    #[serde(skip)]
+    pub phases: RenderPhaseStats,
 }
 
 /// Statistics of a render's phases (method.md §5).
@@ -150,6 +156,8 @@ pub struct PassInfo {
 pub struct RenderPhaseStats {
     pub spp: u32,
     pub passes: u32,
+    /// Rounds rendered: after each, the film is the whole frame at the samples per pixel it says ([`round`]).
+    pub rounds: u32,
     pub seconds_render: f64,
     pub seconds_photons: f64,
     pub seconds_kdtree: f64,
@@ -346,7 +354,7 @@ pub fn render_share(
         let mut merge_seconds = 0.0f64;
         let mut cut = false;
         loop {
-            let round_spp = if settings.time_limit.is_some() { this_pass } else { next_round_spp(this_pass, round_done, last_round, merge_seconds) };
+            let round_spp = if settings.time_limit.is_some() { this_pass } else { next_round_spp(this_pass, round_done, last_round, settings.round_seconds, merge_seconds) };
             let (from, to) = (spp_done + round_done, spp_done + round_done + round_spp);
             let t_round = Instant::now();
             let results: Vec<Option<PathStats>> = states
@@ -410,6 +418,7 @@ pub fn render_share(
                 spp: spp_done + round_done,
                 photons_emitted: stats.photons_emitted,
                 photons_stored: stats.photons_stored,
+                phases: RenderPhaseStats { spp: spp_done + round_done, passes: pass + u32::from(round_done > 0), rounds, ..stats.clone() },
             };
             let t_callback = Instant::now();
             on_pass(film, &info);
@@ -441,6 +450,7 @@ pub fn render_share(
     }
     stats.spp = spp_done;
     stats.passes = pass;
+    stats.rounds = rounds;
     Ok(stats)
 }
 

@@ -94,6 +94,11 @@ pub fn seconds(s: &str) -> Result<f64, String> {
     checked(s, check::positive)
 }
 
+/// Seconds, 0 allowed (`--checkpoint 0`: after every round).
+pub fn seconds_or_zero(s: &str) -> Result<f64, String> {
+    checked(s, check::non_negative)
+}
+
 pub fn exposure(s: &str) -> Result<f32, String> {
     checked(s, check::exposure)
 }

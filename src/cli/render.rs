@@ -53,6 +53,19 @@ pub struct RenderArgs {
     /// Samples per pixel of one pass (time-limited renders) [default: 4].
     #[arg(long, value_parser = args::pass_spp)]
     pub pass_spp: Option<u32>,
+    /// A pass traces one sample per pixel over the whole frame, then rounds of about this many seconds;
+    /// after each round the image is whole at the samples per pixel it says (Ctrl-C, SIGTERM and
+    /// --checkpoint keep it) [default: 10].
+    #[arg(long, value_parser = args::seconds, value_name = "SECONDS")]
+    pub round_seconds: Option<f64>,
+    /// Rewrite the image (-o, and --png and --stats when given; atomically) after the first round that ends
+    /// this many seconds after the last write (0: after every round), with the stats of what it holds
+    /// (`partial: true` until the render ends).
+    #[arg(long, value_parser = args::seconds_or_zero, value_name = "SECONDS")]
+    pub checkpoint: Option<f64>,
+    /// pbrt-v4's flag: rewrite the image after every round, as `--checkpoint 0`.
+    #[arg(long, conflicts_with = "checkpoint")]
+    pub write_partial_images: bool,
     #[command(flatten)]
     pub run: RunArgs,
     /// Crop window x0,y0,x1,y1 in pixels (end exclusive).
@@ -130,7 +143,10 @@ pub struct RenderStatsJson {
     /// pixel with the value 0 (so the pixel's mean is biased low by its share), and a warning was printed.
     pub nan_samples: u64,
     pub inf_samples: u64,
+    /// Interrupted by a signal; `true` also in a checkpoint's stats (`--checkpoint`: the render is not done).
     pub partial: bool,
+    /// Rounds rendered: after each the image is the whole frame at its samples per pixel.
+    pub rounds: u32,
     /// Phases the scene did not need: `{phase: reason}`.
     pub skipped: std::collections::BTreeMap<String, String>,
     /// `a` of the progressive area schedule: pass p's density estimate uses (p+1)^(a−1) of its k-NN area.
@@ -232,22 +248,40 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
 
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
     // (No progress line where the stats JSON goes to standard output.)
-    let stats_to_stdout = args.stats.as_deref().is_some_and(|p| p == Path::new("-") || p == Path::new("/dev/stdout"));
+    let stats_to_stdout = args.stats.as_deref().is_some_and(is_stdout);
     let progress = Progress::new(!args.quiet && !stats_to_stdout && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
     let mut film = Film::for_camera(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
         None => Share::All,
     };
+    let output = output_path(args, scene_path);
+    let mut checkpoint = args.checkpoint.or(args.write_partial_images.then_some(0.0)).map(|every| Checkpoint { every, last: Instant::now(), warned: false });
     let phases = pool.install(|| {
-        render_share(&scene, accel.as_ref(), &settings, share, &mut film, cancel, |film, info| progress.pass_done(info, pass_log.record(film, info).as_ref()), &|samples| {
-            progress.tile_done(samples);
-        })
+        render_share(
+            &scene,
+            accel.as_ref(),
+            &settings,
+            share,
+            &mut film,
+            cancel,
+            |film, info| {
+                progress.pass_done(info, pass_log.record(film, info).as_ref());
+                if let Some(c) = checkpoint.as_mut().filter(|c| c.last.elapsed().as_secs_f64() >= c.every) {
+                    let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
+                    let phases = RenderPhaseStats { partial: true, ..info.phases.clone() };
+                    let stats = stats_json(args, scene_path, &scene, &settings, &phases, film, &pass_log, backend, threads, timing);
+                    c.write(args, &output, film, &stats);
+                }
+            },
+            &|samples| {
+                progress.tile_done(samples);
+            },
+        )
     })?;
     progress.finish();
 
     // The finished image is written first: no later failure may lose it.
-    let output = output_path(args, scene_path);
     let image = film.image();
     let part_json = match args.part {
         Some(p) => Some(write_part(scene_path, &scene, &settings, &phases, &film, share, p, backend, &output, t_start)?),
@@ -361,6 +395,9 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
         if args.time_limit.is_some() {
             bail!("--part: {}", part::PartError::TimeLimited);
         }
+        if args.checkpoint.is_some() || args.write_partial_images {
+            bail!("--part writes a partial film for `caustica merge` once the part is done: --checkpoint and --write-partial-images do not apply");
+        }
     }
     let outputs = [
         ("-o/--output", args.output.as_deref()),
@@ -418,6 +455,9 @@ fn settings(args: &RenderArgs, scene: &Scene) -> RenderSettings {
     settings.pass_spp = args.pass_spp.unwrap_or(if args.time_limit.is_some() { defaults::PASS_SPP_TIME_LIMITED } else { u32::MAX });
     if let Some(seed) = args.run.seed {
         settings.seed = seed;
+    }
+    if let Some(t) = args.round_seconds {
+        settings.round_seconds = t;
     }
     if let Some(estimator) = args.estimator {
         settings.estimator = estimator;
@@ -557,6 +597,40 @@ impl PassLog<'_> {
     }
 }
 
+/// `--checkpoint` / `--write-partial-images`: the outputs rewritten while the render runs.
+struct Checkpoint {
+    /// Seconds from one write to the next (0: after every round).
+    every: f64,
+    last: Instant,
+    /// A failed write is said once; the render goes on (its end writes the outputs again, and reports).
+    warned: bool,
+}
+
+impl Checkpoint {
+    /// Writes the image as the film holds it now (the whole frame at `stats.spp`), atomically: the EXR, then
+    /// the PNG and the stats where asked for, so that a reader finds each file whole, the stats last. The
+    /// stats say `partial: true` (the render is not done).
+    fn write(&mut self, args: &RenderArgs, output: &Path, film: &Film, stats: &RenderStatsJson) {
+        let image = film.image();
+        let result = write_exr(output, &image)
+            .map_err(anyhow::Error::new)
+            .and_then(|()| args.png.as_ref().map_or(Ok(()), |png| write_png(png, &image, args.png_args.exposure, args.png_args.tonemap).map_err(anyhow::Error::new)))
+            .and_then(|()| args.stats.as_ref().filter(|p| !is_stdout(p)).map_or(Ok(()), |p| write_json_atomic(p, stats).map_err(anyhow::Error::new)));
+        if let Err(e) = result {
+            if !self.warned {
+                eprintln!("warning: checkpoint not written ({e:#}); the render goes on");
+                self.warned = true;
+            }
+        }
+        self.last = Instant::now();
+    }
+}
+
+/// Whether `--stats` names standard output (no checkpoint goes there: one JSON document is written).
+fn is_stdout(p: &Path) -> bool {
+    p == Path::new("-") || p == Path::new("/dev/stdout")
+}
+
 /// Wall-clock figures of the whole command.
 #[derive(Clone, Copy)]
 struct Timing {
@@ -607,6 +681,7 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
         nan_samples: film.nan_count(),
         inf_samples: film.inf_count(),
         partial: phases.partial,
+        rounds: phases.rounds,
         skipped: phases.skipped.iter().map(|s| (s.phase.clone(), s.reason.clone())).collect(),
         area_exponent: crate::render::PROGRESSIVE_AREA_EXPONENT,
         error: match (pass_log.last(), &args.reference) {

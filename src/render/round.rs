@@ -3,7 +3,8 @@
 //! checkpoint or a look at the image in between find no black tiles).
 //!
 //! A pass of `pass_spp` samples (one photon map, α = `pass_spp`: method.md §6.1) runs in rounds: first one
-//! sample per pixel (a whole image soon), then rounds of about [`ROUND_SECONDS`] each at the rate of the
+//! sample per pixel (a whole image soon), then rounds of about `round_seconds` (`render --round-seconds`,
+//! [`crate::scene::settings::defaults::ROUND_SECONDS`] by default) each at the rate of the
 //! round before (at least one sample, at most what the pass has left), and at least [`MERGE_FACTOR`]
 //! times the last round's merge. A time-limited render's passes are short (4 spp by default): each is
 //! one round.
@@ -27,27 +28,21 @@ use crate::math::{Vec2, Vec3};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 
-/// A round's intended length in seconds, after a pass's first round of one sample per pixel. Short enough
-/// that Ctrl-C or SIGTERM loses little and a checkpoint can come often; long enough that the rounds' cost
-/// (a merge of every tile, a wait for the round's last tile) stays within a percent: doubling rounds (1, 1,
-/// 2, 4 … spp, as pbrt-v4's waves) cost 5 % of the wall time of teapot-glossy's 8 spp with `pt`.
-pub const ROUND_SECONDS: f64 = 10.0;
-
 /// A round lasts at least this many times the last round's merge (about 60 ns a pixel, single-threaded),
 /// so that on a very large film the merges stay within a percent of the time.
 pub const MERGE_FACTOR: f64 = 100.0;
 
 /// Samples per pixel of the next round of a pass of `pass_spp` samples of which `done` are traced: 1 for
-/// the first round (`last` = `None`); then what takes [`ROUND_SECONDS`] (or [`MERGE_FACTOR`] times
+/// the first round (`last` = `None`); then what takes `round_seconds` (or [`MERGE_FACTOR`] times
 /// `merge_seconds`, if longer) at the rate of the last round, which traced `last.0` samples in `last.1`
 /// seconds; at least 1 and at most what the pass has left (0 only when the pass is done).
 #[must_use]
-pub fn next_round_spp(pass_spp: u32, done: u32, last: Option<(u32, f64)>, merge_seconds: f64) -> u32 {
+pub fn next_round_spp(pass_spp: u32, done: u32, last: Option<(u32, f64)>, round_seconds: f64, merge_seconds: f64) -> u32 {
     let left = pass_spp.saturating_sub(done);
     let timed = match last {
         None => 1,
         Some((spp, seconds)) if seconds > 0.0 => {
-            let target = ROUND_SECONDS.max(MERGE_FACTOR * merge_seconds);
+            let target = round_seconds.max(MERGE_FACTOR * merge_seconds);
             (target * f64::from(spp) / seconds).floor().clamp(1.0, f64::from(u32::MAX)) as u32
         }
         Some(_) => u32::MAX,
@@ -188,25 +183,25 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
 mod tests {
     use super::*;
 
-    /// One sample first, then ROUND_SECONDS (or MERGE_FACTOR merges) at the last round's rate, cut to the
+    /// One sample first, then 10 s (or MERGE_FACTOR merges) at the last round's rate, cut to the
     /// pass's remainder, never 0 while samples are left.
     #[test]
     fn rounds_take_one_sample_then_the_time() {
-        assert_eq!(next_round_spp(64, 0, None, 0.0), 1);
+        assert_eq!(next_round_spp(64, 0, None, 10.0, 0.0), 1);
         // The whole pass fits in ROUND_SECONDS: the rest in one round.
-        assert_eq!(next_round_spp(64, 1, Some((1, 0.1)), 0.001), 63);
+        assert_eq!(next_round_spp(64, 1, Some((1, 0.1)), 10.0, 0.001), 63);
         // 4 spp took 8 s: 5 spp take 10 s.
-        assert_eq!(next_round_spp(1000, 8, Some((4, 8.0)), 0.01), 5);
+        assert_eq!(next_round_spp(1000, 8, Some((4, 8.0)), 10.0, 0.01), 5);
         // The merge took 0.2 s: rounds of 20 s.
-        assert_eq!(next_round_spp(1000, 8, Some((4, 8.0)), 0.2), 10);
-        // One sample takes longer than ROUND_SECONDS: still one per round.
-        assert_eq!(next_round_spp(1000, 100, Some((1, 60.0)), 0.0), 1);
-        assert_eq!(next_round_spp(64, 64, Some((1, 1.0)), 0.0), 0);
+        assert_eq!(next_round_spp(1000, 8, Some((4, 8.0)), 10.0, 0.2), 10);
+        // One sample takes longer than the round: still one per round.
+        assert_eq!(next_round_spp(1000, 100, Some((1, 60.0)), 10.0, 0.0), 1);
+        assert_eq!(next_round_spp(64, 64, Some((1, 1.0)), 10.0, 0.0), 0);
         let mut done = 0;
         let mut sizes = Vec::new();
         let mut last = None;
         while done < 100 {
-            let n = next_round_spp(100, done, last, 0.0);
+            let n = next_round_spp(100, done, last, 10.0, 0.0);
             sizes.push(n);
             done += n;
             last = Some((n, 0.3 * f64::from(n)));
