@@ -9,6 +9,12 @@
 //! fraction [`area_scale_for_pass`] of its k-NN area (the progressive schedule of method.md §6), and the
 //! film averages over passes.
 //!
+//! A pass's eye samples are traced in *rounds* over the whole frame ([`round`]: one sample per pixel,
+//! then rounds of about `round_seconds`; a time-limited pass is one round), each merged into the film
+//! when it ends, so that `on_pass` — called after every round — sees the whole frame at the samples per
+//! pixel it says, and Ctrl-C keeps the rounds done (the round under way is dropped). The rounds change no
+//! bit of a finished image.
+//!
 //! Sample `s` of pixel `(x, y)` draws from `Sampler::for_pixel(seed, y·width + x, s)` with `s` counted
 //! over the whole render, so an image is bit-identical whatever the number of threads.
 //!
@@ -252,7 +258,8 @@ pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), Str
 /// Renders `scene` into `film`. `cancel` is polled per tile and every few photons of a photon pass
 /// (Ctrl-C; an interrupted photon pass ends the render, marked partial); the time limit also stops a
 /// photon pass (the first pass then renders with the photons traced so far); `on_pass` sees the film after
-/// every completed pass; `on_tile` gets the number of samples of each finished tile (progress bars).
+/// every round (the whole frame: [`round`]) and so after every pass; `on_tile` gets the number of samples
+/// of each tile's round (progress bars).
 ///
 /// Time spent inside `on_pass` (error evaluation, logs) is not rendering: it is left out of
 /// [`PassInfo::seconds`] and of the time limit, so a render with `--reference` renders as long as one

@@ -294,6 +294,12 @@ impl TileBuffer {
         b
     }
 
+    /// Bytes per pixel of a buffer for a film with `filter` (its border aside), for `render::memory`.
+    #[must_use]
+    pub fn bytes_per_pixel(filter: PixelFilter) -> usize {
+        size_of::<SampleSum>() + if filter.is_box() { 0 } else { size_of::<WeightSum>() }
+    }
+
     /// Empties the buffer and points it at `tile`, reusing its allocation.
     pub fn reset(&mut self, tile: Tile) {
         self.tile = tile;

@@ -6,7 +6,10 @@
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B), and with a
-//!   filter wider than a pixel one [`PixelWeight`] more (64 B; tile buffers are not counted);
+//!   filter wider than a pixel one [`PixelWeight`] more (64 B); and what a pass keeps per pixel from one
+//!   round to the next (`render::round`): two tile buffers' sums (40 B each, 72 B more with a wide
+//!   filter; their borders are not counted), the running sum (16 B) and, with a photon pass, the search
+//!   memory ([`GatherMemory`], ~190 B);
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 180 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
@@ -28,7 +31,8 @@
 //! The limit ([`MemoryLimit::process`]) is `--memory-limit` where given, else the smallest of the machine's
 //! physical memory, the process's cgroup limit and its address-space limit ([`crate::sys::memory_bound`]).
 
-use crate::film::{PixelSum, PixelWeight};
+use crate::film::{PixelSum, PixelWeight, TileBuffer};
+use crate::integrator::GatherMemory;
 use crate::math::Vec3;
 use crate::photon::counts::MAX_CELLS_PER_PHOTON;
 use crate::photon::occupancy::LIST_BYTES_PER_PHOTON;
@@ -53,9 +57,12 @@ impl MemoryEstimate {
     pub fn of(scene: &Scene, settings: &RenderSettings) -> Self {
         let m = &scene.mesh;
         let mesh = mesh_bytes(m.positions.len() as u64, m.indices.len() as u64, m.normals.is_some(), m.uvs.is_some());
-        let per_pixel = size_of::<PixelSum>() + if scene.camera.filter().is_box() { 0 } else { size_of::<PixelWeight>() };
+        let photons = photon_pass_needed(scene, settings.estimator).is_ok();
+        let filter = scene.camera.filter();
+        let rounds = 2 * TileBuffer::bytes_per_pixel(filter) + size_of::<(Vec3, u32)>() + if photons { size_of::<GatherMemory>() } else { 0 };
+        let per_pixel = size_of::<PixelSum>() + if filter.is_box() { 0 } else { size_of::<PixelWeight>() } + rounds;
         let film = scene.camera.crop().area().saturating_mul(per_pixel as u64);
-        let photon_map = if photon_pass_needed(scene, settings.estimator).is_ok() { photon_map_bytes(settings.photons) } else { 0 };
+        let photon_map = if photons { photon_map_bytes(settings.photons) } else { 0 };
         Self { mesh, film, photon_map }
     }
 

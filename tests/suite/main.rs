@@ -33,6 +33,7 @@ mod parts;
 mod path_waves;
 mod photon_emission;
 mod photon_kdtree;
+mod progressive;
 mod real_scenes;
 mod render_analytic;
 mod render_determinism;
