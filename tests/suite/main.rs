@@ -27,6 +27,7 @@ mod hostile_io;
 mod hostile_xml;
 mod long_delta_chains;
 mod mesh_load;
+mod materials;
 mod mitsuba_features;
 mod mutation;
 mod parts;

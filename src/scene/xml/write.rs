@@ -28,7 +28,7 @@ fn tag_of(key: &str) -> Option<&'static str> {
         "filename" | "material" | "distribution" | "fov_axis" => "string",
         "center" | "position" => "point",
         "direction" => "vector",
-        "reflectance" | "specular_reflectance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
+        "reflectance" | "specular_reflectance" | "specular_transmittance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
         "int_ior" | "ext_ior" => "ior",
         _ => return None,
     })
