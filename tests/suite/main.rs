@@ -24,6 +24,7 @@ mod film_io;
 mod filters;
 mod fuzz;
 mod long_delta_chains;
+mod max_depth_caustics;
 mod mesh_load;
 mod mitsuba_features;
 mod mutation;
