@@ -355,7 +355,7 @@ impl<'a> PathTracer<'a> {
         // delta vertex from it), so there is no estimate to make.
         let mut area = None;
         let alpha = if path.first_non_delta { self.alpha } else { 1.0 };
-        let longest = longest_chain(path.depth, self.max_depth());
+        let longest = looked_up.map_or(0, |_| longest_chain(path.depth, self.max_depth()));
         if let (Some(_), 0) = (looked_up, longest) {
             area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
         } else if let Some(looked_up) = looked_up {
