@@ -26,6 +26,7 @@ mod fuzz;
 mod hostile_io;
 mod hostile_xml;
 mod long_delta_chains;
+mod max_depth_caustics;
 mod mesh_load;
 mod materials;
 mod mitsuba_features;
