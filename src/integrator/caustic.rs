@@ -783,7 +783,7 @@ mod tests {
             list.push(Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 6000.0), 1.0), 1 + i % 3);
         }
         let map = PhotonMap::new(KdTree::build(list).unwrap(), 6000, None);
-        let bsdf = Bsdf::Diffuse { reflectance: Vec3::ONE };
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
         for estimator in [Estimator::Pm, Estimator::Mis] {
             let est = CausticEstimator::new(estimator, Some(&map), 50, 0.5, 1.0);
             let mut state = GatherState::default();
