@@ -24,11 +24,11 @@ fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
         "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" | "stddev" | "B" | "C" => "float",
         "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
-        "face_normals" | "flip_normals" | "sample_visible" => "boolean",
+        "face_normals" | "flip_normals" | "sample_visible" | "nonlinear" => "boolean",
         "filename" | "material" | "distribution" | "fov_axis" => "string",
         "center" | "position" => "point",
         "direction" => "vector",
-        "reflectance" | "specular_reflectance" | "specular_transmittance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
+        "reflectance" | "diffuse_reflectance" | "specular_reflectance" | "specular_transmittance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
         "int_ior" | "ext_ior" => "ior",
         _ => return None,
     })
