@@ -207,6 +207,38 @@ fn meshes_must_be_regular_files() {
     }
 }
 
+/// The scene file named on the command line, TOML or XML, is read as an included file is: a device, a FIFO,
+/// a directory or a file over 256 MiB is refused (a FIFO would wait for a writer, /dev/zero fill memory).
+#[test]
+fn scene_files_must_be_regular_files_within_the_bound() {
+    let dir = case_dir("scene_not_regular");
+    for ext in ["toml", "xml"] {
+        #[cfg(unix)]
+        {
+            let zero = format!("zero.{ext}");
+            std::os::unix::fs::symlink("/dev/zero", dir.join(&zero)).unwrap();
+            expect_refused(&dir, &["render", &zero, "-o", "out.exr", "--quiet"], &[&zero, "not a regular file"]);
+            expect_refused(&dir, &["info", &zero], &[&zero, "not a regular file"]);
+            std::fs::remove_file(dir.join(&zero)).unwrap();
+        }
+        let fifo = format!("pipe.{ext}");
+        if Command::new("mkfifo").arg(dir.join(&fifo)).status().is_ok_and(|s| s.success()) {
+            expect_refused(&dir, &["render", &fifo, "-o", "out.exr", "--quiet"], &[&fifo, "not a regular file"]);
+            expect_refused(&dir, &["convert", &fifo, "-o", "out.toml"], &[&fifo, "not a regular file"]);
+            std::fs::remove_file(dir.join(&fifo)).unwrap();
+        }
+        let sub = format!("sub.{ext}");
+        std::fs::create_dir(dir.join(&sub)).unwrap();
+        expect_refused(&dir, &["render", &sub, "-o", "out.exr", "--quiet"], &[&sub, "a directory"]);
+        std::fs::remove_dir(dir.join(&sub)).unwrap();
+        // A sparse file: 257 MiB stated, nothing written.
+        let huge = format!("huge.{ext}");
+        std::fs::File::create(dir.join(&huge)).unwrap().set_len(257 << 20).unwrap();
+        expect_refused(&dir, &["render", &huge, "-o", "out.exr", "--quiet"], &[&huge, "larger than 256 MiB"]);
+        std::fs::remove_file(dir.join(&huge)).unwrap();
+    }
+}
+
 /// A tiny scene that renders in well under a second.
 const QUICK_SCENE: &str = r#"
 [integrator]
