@@ -307,7 +307,7 @@ fn fuzz_child() {
     let dir = work_dir();
     let t = targets(&dir).into_iter().chain([misbehaving()]).find(|t| t.name == v[0]).expect("a reader");
     let corpus = corpus(t.name);
-    let path = dir.join(format!("input.{}", t.ext));
+    let path = dir.join(format!("input-{}.{}", t.name, t.ext));
     // Panics are caught and reported per input; keep the default hook's backtrace noise out of the log.
     std::panic::set_hook(Box::new(|_| {}));
     let deadline = Instant::now() + Duration::from_secs_f64(seconds);
