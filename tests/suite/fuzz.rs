@@ -344,19 +344,19 @@ fn fuzz(t: &Target, end: u64, time: Duration, hang: Duration, save: bool) -> Run
     let corpus = corpus(t.name);
     let end = end.saturating_add(corpus.len() as u64);
     let mut run = Run { executions: 0, slowest: Duration::ZERO, failures: Vec::new() };
-    let fail = |k: u64, why: &str, failures: &mut Vec<String>| {
+    // New failing inputs are kept at the end: the children number the inputs by the corpus they started with.
+    let mut keep: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    let mut fail = |k: u64, why: &str, failures: &mut Vec<String>| {
         if let Some(file) = corpus.get(k as usize) {
             failures.push(format!("{}: kept input {} fails again: {why}", t.name, file.display()));
             return;
         }
         let mut file = format!("round {}", k - corpus.len() as u64);
         if save {
-            let d = corpus_dir(t.name);
-            std::fs::create_dir_all(&d).unwrap();
             let kind = why.split([' ', ':']).next().unwrap_or("fail");
-            let p = d.join(format!("{kind}-{:08}.{}", k - corpus.len() as u64, t.ext));
-            std::fs::write(&p, input(t, &corpus, k)).unwrap();
+            let p = corpus_dir(t.name).join(format!("{kind}-{:08}.{}", k - corpus.len() as u64, t.ext));
             file = p.display().to_string();
+            keep.push((p, input(t, &corpus, k)));
         }
         failures.push(format!("{} ({file}): {why}", t.name));
     };
@@ -434,6 +434,10 @@ fn fuzz(t: &Target, end: u64, time: Duration, hang: Duration, save: bool) -> Run
             }
         }
         k = next.unwrap();
+    }
+    for (path, bytes) in keep {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
     }
     eprintln!(
         "fuzz {}: {} executions in {:.1} s ({} kept inputs), slowest {:.3} s, {} failures",
