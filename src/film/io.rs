@@ -298,7 +298,9 @@ pub fn check_exr_size(path: &Path, channels: usize) -> Result<(), ImageError> {
         let pixels = (width as u64).saturating_mul(height as u64);
         let channels = channels.max(header.channels.list.len());
         let bytes = pixels.saturating_mul(4 * channels as u64);
-        let limit = memory.min(crate::camera::MAX_FILM_PIXELS.saturating_mul(4 * channels as u64));
+        // Reading takes about three times the samples: the decoder's samples, its block buffers (a block
+        // of a wide image is large), and the image built from them.
+        let limit = (memory / 3).min(crate::camera::MAX_FILM_PIXELS.saturating_mul(4 * channels as u64));
         if bytes > limit {
             return Err(ImageError::TooLarge { path: path.to_owned(), width, height, channels, bytes, limit });
         }
