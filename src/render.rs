@@ -241,10 +241,14 @@ impl Share {
 }
 
 /// Whether a caustic photon pass is needed, with the reason when it is not (method.md §1: no delta
-/// BSDF means no caustic path; no photon-emitting light means no photon).
+/// BSDF means no caustic path; no photon-emitting light means no photon; method.md §2.1: a `max_depth`
+/// below 3 leaves no room for a caustic path `L S x`, seen from the camera at depth 1).
 pub fn photon_pass_needed(scene: &Scene, estimator: Estimator) -> Result<(), String> {
     if estimator == Estimator::Pt {
         return Err("estimator pt uses no photons".into());
+    }
+    if crate::photon::longest_chain(1, scene.integrator.max_segments()) == 0 {
+        return Err(format!("max_depth {} leaves no room for a caustic path (at least 3 segments)", scene.integrator.max_depth));
     }
     if !scene.has_delta_bsdf() {
         return Err("no delta surface in the scene, so no caustic path exists".into());

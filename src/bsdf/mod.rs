@@ -33,6 +33,7 @@ mod dielectric;
 mod diffuse;
 mod ior;
 mod microfacet;
+mod plastic;
 mod roughconductor;
 mod thindielectric;
 mod twosided;
@@ -47,6 +48,7 @@ pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
@@ -161,6 +163,7 @@ bsdf_types! {
     RoughConductor(roughconductor::RoughConductor),
     Dielectric(dielectric::Dielectric),
     ThinDielectric(thindielectric::ThinDielectric),
+    Plastic(plastic::Plastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
 }

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, RoughConductor, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -81,8 +81,13 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 }
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
-/// + 6×2 + 6 + 3 blends): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 87;
+/// + 6×2 + 6 + 3 blends + 4 plastic): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 91;
+
+/// A coloured plastic of polypropylene's index.
+fn plastic() -> Bsdf {
+    Bsdf::Plastic(Plastic::new(1.49, Vec3::new(0.8, 0.5, 0.2), Vec3::ONE, false))
+}
 
 fn run_chi2_suite(cases: &[(String, Bsdf, Vec3, PdfIntegral)], sample_count: usize) {
     let test = Chi2Test {
@@ -205,6 +210,10 @@ fn chi2_blends_with_delta_components() {
     for t in [10.0, 70.0, 160.0] {
         cases.push((format!("nested blend θo {t}"), nested.clone(), wo_at(t), PdfIntegral::AtMostOne));
     }
+    // plastic: the coating's delta reflection (probability p_s(θo)) and the cosine-weighted base.
+    for t in [0.0, 30.0, 60.0, 85.0] {
+        cases.push((format!("plastic θo {t}"), plastic(), wo_at(t), PdfIntegral::AtMostOne));
+    }
     run_chi2_suite(&cases, 300_000);
 }
 
@@ -267,6 +276,7 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
+    v.push(two(plastic()));
     v.push(blend(
         0.5,
         diffuse(0.5),

@@ -28,8 +28,8 @@ pub struct MergeArgs {
     /// Write the merge's statistics (parts, missing parts, summed work) as JSON here (`-`: standard output).
     #[arg(long)]
     pub stats: Option<PathBuf>,
-    /// Merge even if some parts are missing (the image then has fewer samples, or black tiles); the
-    /// missing parts are listed on stderr and in the stats.
+    /// Merge even if some parts are missing or were interrupted (the image then has fewer samples, or
+    /// black tiles); the missing and partial parts are listed on stderr and in the stats.
     #[arg(long)]
     pub allow_missing: bool,
     /// No summary line.
@@ -66,18 +66,27 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<Outcome> {
     if !missing.is_empty() {
         eprintln!("warning: merged without part(s) {}: the image has fewer samples than the render asked for", missing.join(", "));
     }
+    let partial: Vec<String> = stats.partial.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
+    if !partial.is_empty() {
+        eprintln!("warning: part(s) {} were interrupted and merged with the passes they finished: the image has fewer samples than the render asked for", partial.join(", "));
+    }
     stats.seconds_merge = t.elapsed().as_secs_f64();
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats).with_context(|| format!("--stats {}", p.display()))?;
     }
     if !args.quiet {
         eprintln!(
-            "{}: merged {} of {} parts ({} shares), {} spp; parts took {:.2} s in all (longest {:.2} s), merge {:.2} s",
+            "{}: merged {} of {} parts ({} shares), {} spp{}; parts took {:.2} s in all (longest {:.2} s), merge {:.2} s",
             args.output.display(),
             stats.merged.len(),
             stats.parts,
             stats.share,
             stats.spp,
+            if stats.spp_merged_min == u64::from(stats.spp) && stats.spp_merged == f64::from(stats.spp) {
+                String::new()
+            } else {
+                format!(" asked, {:.2} merged (at least {} in every pixel)", stats.spp_merged, stats.spp_merged_min)
+            },
             stats.seconds_parts_sum,
             stats.seconds_parts_max,
             stats.seconds_merge

@@ -485,7 +485,8 @@ fn output_path(args: &RenderArgs, scene_path: &Path) -> PathBuf {
     })
 }
 
-/// Writes the partial film of `--part` (refused when interrupted: an incomplete part cannot be merged).
+/// Writes the partial film of `--part`. An interrupted part is written too, with the passes (and tiles of
+/// its last pass) it finished, marked partial: `merge --allow-missing` takes it (`render::part`).
 #[allow(clippy::too_many_arguments)]
 fn write_part(
     scene_path: &Path,
@@ -499,9 +500,6 @@ fn write_part(
     output: &Path,
     t_start: Instant,
 ) -> anyhow::Result<PartJson> {
-    if phases.partial {
-        bail!("interrupted: part {p} was not written (an incomplete part cannot be merged); run it again");
-    }
     let fingerprint = part::fingerprint(scene, settings, backend, p.count);
     let info = PartInfo {
         part: p,
@@ -515,6 +513,14 @@ fn write_part(
         phases: phases.clone(),
     };
     part::write_part(output, film, &info)?;
+    if info.is_partial() {
+        eprintln!(
+            "warning: part {p} was interrupted after {} of its {} passes and written as partial to {}: merge it with --allow-missing (fewer samples), or run it again",
+            phases.passes_rendered,
+            info.passes_in_share(),
+            output.display()
+        );
+    }
     Ok(PartJson { index: p.index, count: p.count, share: PartInfo::share_name(share), fingerprint, passes_rendered: phases.passes_rendered })
 }
 

@@ -26,6 +26,13 @@
 //! Emitters that emit no photons (the `constant` emitter, see `photon::emit`) have no T1 technique, so
 //! their caustics keep `w₂ = 1` in every estimator; so do paths whose delta chain is longer than the
 //! photon pass follows ([`crate::photon::photon_chain_reaches`], the one rule both sides ask).
+//!
+//! `max_depth` (method.md §2.1): a photon of `m` delta bounces gathered at a vertex `x` of eye depth `d`
+//! makes a path of `d + m + 1` segments, and Mitsuba's `max_depth` counts segments (its path tracer
+//! stops at that depth, and so does ours). So T1 counts only the photons with `m ≤`
+//! [`crate::photon::longest_chain`]`(d, max_depth)`, the photon pass traces no chain that fits at no eye
+//! depth, and T2, whose paths stop at `max_depth` by themselves, asks the same rule for its weight:
+//! `w₁ + w₂ = 1` on every path either technique makes, and a longer path is made by neither.
 
 use crate::bsdf::{Bsdf, BsdfAtWo, TransportMode};
 use crate::math::{Vec3, Vec4};
@@ -279,6 +286,8 @@ pub struct CausticOrigin {
     pub area: OriginArea,
     /// `α`: samples per pixel sharing the photon map if `x` is the first non-delta eye vertex, else 1.
     pub alpha: f32,
+    /// [`crate::photon::longest_chain`] at `x`: the longest delta chain T1 could have used there.
+    pub longest_chain: u32,
 }
 
 /// Result of the density estimate at one vertex.
@@ -501,14 +510,18 @@ impl<'a> CausticEstimator<'a> {
         near.map(|near| bound(near.power, near.dirs.min(), near.dirs.max(), area_lo()))
     }
 
-    /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4).
+    /// T1 at `x`: the k-NN density estimate, each photon weighted by `w₁` (method.md §3, §4), over the
+    /// photons whose delta chain is at most `longest` ([`crate::photon::longest_chain`] at `x`: the paths
+    /// they make fit `max_depth`, method.md §2.1). That filter acts on the sum only: the search, hence ΔA,
+    /// the roulette's bound and T2's area, are those of all photons, so an unlimited depth gives the
+    /// estimate it gave.
     /// Photons arriving from the other side of the surface than `wo` are rejected inside the search.
     /// With an area scale `s < 1` (method.md §6) only the photons within `r² = s·r²_kNN` enter, over
     /// `ΔA = π·s·r²_kNN`; that ΔA is the one returned, so T2's q₁ uses the area of the estimate made.
     /// Kept out of line (fat LTO had inlined it into `PathTracer::li`), so that callgrind's
     /// `--toggle-collect` (`scripts/bench-instructions`) and perf can name its cost; one call per search.
     #[inline(never)]
-    pub fn gather(&self, rx: &Receiver, alpha: f32, scratch: &mut GatherScratch<'_>) -> Gather {
+    pub fn gather(&self, rx: &Receiver, alpha: f32, longest: u32, scratch: &mut GatherScratch<'_>) -> Gather {
         let Receiver { si, wo_world, at_wo: bsdf_at_wo, cell, .. } = *rx;
         let GatherBuffers { knn, batch } = &mut *scratch.buffers;
         let (delta_area, searched) = self.search(si.p, cell, si.ng, wo_world.dot(si.ng), &mut scratch.memory.knn, knn);
@@ -530,10 +543,11 @@ impl<'a> CausticEstimator<'a> {
         for chunk in knn.neighbors().chunks(BATCH) {
             let mut n = 0;
             for nb in chunk {
-                if nb.dist2 > r2 {
+                let d = &decoded[nb.index as usize];
+                if nb.dist2 > r2 || u32::from(d.chain) > longest {
                     continue;
                 }
-                let wi_local = si.frame.to_local(decoded[nb.index as usize].wi);
+                let wi_local = si.frame.to_local(d.wi);
                 (batch.wi[0][n], batch.wi[1][n], batch.wi[2][n], batch.index[n]) = (wi_local.x, wi_local.y, wi_local.z, nb.index);
                 n += 1;
             }
@@ -604,13 +618,14 @@ impl<'a> CausticEstimator<'a> {
 
     /// T2's weight for a light reached from `origin` through `delta_vertices` ≥ 1 delta-sampled vertices,
     /// whose light point a photon would leave with density `pdf_emit` (0 for emitters without photons).
-    /// T1 cannot make the path when `pdf_emit` is 0, or when the photon pass cuts a chain that long
-    /// ([`photon_chain_reaches`]): then `w₂ = 1`. The q₁ that reached the MIS function is added to `q1_seen`.
+    /// T1 cannot make the path when `pdf_emit` is 0, or when its chain is longer than T1 uses at `origin`
+    /// ([`photon_chain_reaches`] with `origin.longest_chain`: the photon pass's cap; `max_depth` never
+    /// refuses a path T2 made, which stopped at `max_depth` itself): then `w₂ = 1`. The q₁ that reached the MIS function is added to `q1_seen`.
     /// When `x` skipped its estimate, `mis` runs the search for ΔA here ([`CausticEstimator::area_at`]) and
     /// counts it in `area_queries`.
     #[must_use]
     pub fn t2_weight(&self, origin: &CausticOrigin, pdf_emit: f32, delta_vertices: u32, q1_seen: &mut Q1Range, area_queries: &mut u64, scratch: &mut GatherScratch<'_>) -> f32 {
-        if self.map.is_none() || !photon_chain_reaches(delta_vertices) || pdf_emit.is_nan() || pdf_emit <= 0.0 {
+        if self.map.is_none() || !photon_chain_reaches(delta_vertices, origin.longest_chain) || pdf_emit.is_nan() || pdf_emit <= 0.0 {
             return 1.0;
         }
         match self.estimator {
@@ -638,7 +653,7 @@ mod tests {
     use super::*;
     use crate::math::{Frame, Vec2};
     use crate::photon::kdtree::KdTree;
-    use crate::photon::Photon;
+    use crate::photon::{Photon, MAX_DELTA_CHAIN};
     use crate::sampler::Sampler;
 
     /// The vertex `si` seen from `wo` with BSDF `bsdf`, as the estimator's queries take it.
@@ -668,7 +683,7 @@ mod tests {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
                 let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
-                let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+                let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
                 worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * state.buffers.knn_r2()).abs() / g.delta_area);
                 sum += f64::from(g.l1.x);
             }
@@ -741,7 +756,7 @@ mod tests {
         let mut estimate = |photons: Vec<Photon>| {
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
             let est = CausticEstimator::new(Estimator::Pm, Some(&map), 20, 1.0, 1.0);
-            let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+            let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
             let knn_area = std::f32::consts::PI * state.buffers.knn_r2();
             assert!(knn_area < 1e-7 && g.delta_area == knn_area, "ΔA {} clamped above the k-NN area {knn_area}", g.delta_area);
             g.l1.x
@@ -753,6 +768,44 @@ mod tests {
         assert!(min_delta_area(1.0, 1e-6, centre) <= std::f32::consts::PI * (5e-11f32).powi(2) * 1.0001);
         // And stays positive at the origin.
         assert!(min_delta_area(1.0, 1.0, Vec3::ZERO) > 0.0);
+    }
+
+    /// The estimate counts only the photons whose chain fits (method.md §2.1), over the area of all of them:
+    /// 6,000 photons of chains 1, 2, 3 in turn, equal powers, on a white diffuse plane (f = 1/π): with a
+    /// limit L the estimate is the count of chains ≤ L over the same ΔA, and with the cap (an unlimited
+    /// max_depth) it is the estimate of every photon.
+    #[test]
+    fn the_estimate_counts_only_the_chains_that_fit() {
+        let mut s = Sampler::for_key(25, 0, 0);
+        let mut list = crate::photon::PhotonList::default();
+        for i in 0..6000u32 {
+            let u = s.next_2d();
+            list.push(Photon::new(Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 6000.0), 1.0), 1 + i % 3);
+        }
+        let map = PhotonMap::new(KdTree::build(list).unwrap(), 6000, None);
+        let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
+        for estimator in [Estimator::Pm, Estimator::Mis] {
+            let est = CausticEstimator::new(estimator, Some(&map), 50, 0.5, 1.0);
+            let mut state = GatherState::default();
+            for q in 0..50 {
+                let u = s.next_2d();
+                let si = plane_point(Vec3::new(u.x - 0.5, u.y - 0.5, 0.0));
+                let rx = vertex(&est, &si, &bsdf, Vec3::Z);
+                let all = est.gather(&rx, 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
+                assert_eq!(all.photons, 50, "query {q}");
+                for longest in 0..=3 {
+                    let g = est.gather(&rx, 1.0, longest, &mut state.scratch());
+                    assert_eq!(g.delta_area, all.delta_area, "query {q}, L = {longest}: ΔA is that of every photon");
+                    let decoded = map.tree().decoded();
+                    let fit = state.buffers.knn.neighbors().iter().filter(|nb| u32::from(decoded[nb.index as usize].chain) <= longest).count();
+                    assert_eq!(g.photons as usize, fit, "query {q}, L = {longest}");
+                    // Each photon adds w₁·f·Φ with f and Φ equal for all: the estimate is proportional to the count.
+                    let expected = all.l1.x * fit as f32 / 50.0;
+                    assert!((g.l1.x - expected).abs() <= 1e-4 * all.l1.x, "query {q}, L = {longest}: {} vs {expected}", g.l1.x);
+                }
+                assert_eq!(est.gather(&rx, 1.0, 3, &mut state.scratch()), all);
+            }
+        }
     }
 
     #[test]
@@ -808,7 +861,7 @@ mod tests {
             let u = s.next_2d();
             let si = plane_point(Vec3::new(3.0 * u.x - 1.5, 3.0 * u.y - 1.5, 0.0));
             let wo = if s.next_1d() < 0.1 { -Vec3::Z } else { Vec3::Z };
-            let g = est.gather(&vertex(&est, &si, &bsdf, wo), 1.0, &mut gather_state.scratch());
+            let g = est.gather(&vertex(&est, &si, &bsdf, wo), 1.0, MAX_DELTA_CHAIN, &mut gather_state.scratch());
             let area = est.area_at(si.p, si.ng, wo.dot(si.ng), &mut area_state.scratch());
             assert_eq!(g.delta_area.to_bits(), area.to_bits(), "{}: estimate's ΔA {} but deferred {area}", si.p, g.delta_area);
             match g.photons {
@@ -885,7 +938,7 @@ mod tests {
         assert!(!est.occupancy.as_ref().unwrap().photons_near(p0.p).unwrap().fewer_than(20));
         assert_eq!(est.estimate_bound(&vertex(&est, &p0, &bsdf, Vec3::Z), &mut state.scratch()), None);
         assert_eq!(est.gather_probability(&vertex(&est, &p0, &bsdf, Vec3::Z), Vec3::ONE, Vec3::splat(1e6), &mut state.scratch()), 1.0);
-        let first = est.gather(&vertex(&est, &p0, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+        let first = est.gather(&vertex(&est, &p0, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
         let r0 = state.buffers.knn_r2().sqrt();
         let (mut worst, mut at) = (0.0f32, p0.p);
         for i in 0..400 {
@@ -894,7 +947,7 @@ mod tests {
             at = (at + 0.1 * r0 * Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0)).clamp(Vec3::splat(-0.5), Vec3::splat(0.5));
             let x = plane_point(at);
             let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut state.scratch()).expect("a recent query is near");
-            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
             assert!(c >= g.l1.max_element() * (1.0 - 1e-5), "query {i} at {}: bound {c} below the estimate {}", x.p, g.l1);
             worst = worst.max(c / g.l1.max_element());
         }
@@ -922,7 +975,7 @@ mod tests {
             // A fresh scratch: no recent query near.
             let mut state = GatherState::default();
             let c = est.estimate_bound(&vertex(&est, &x, &bsdf, Vec3::Z), &mut state.scratch());
-            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, &mut state.scratch());
+            let g = est.gather(&vertex(&est, &x, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
             if let Some(c) = c {
                 bounded += 1;
                 assert!(g.photons < 20, "point {i}: a bound where {} photons were found", g.photons);

@@ -14,6 +14,7 @@ use crate::accel::{Accel, Hit};
 use crate::bsdf::TransportMode;
 use crate::light::Light;
 use crate::math::{Ray, Vec3};
+use crate::photon::longest_chain;
 use crate::sampler::Sampler;
 use crate::sampling::mis::power_heuristic;
 use crate::scene::{Scene, SurfaceInteraction};
@@ -157,7 +158,7 @@ impl<'a> PathTracer<'a> {
 
     /// Longest path in segments, or `u32::MAX` for unlimited.
     fn max_depth(&self) -> u32 {
-        u32::try_from(self.scene.integrator.max_depth).unwrap_or(u32::MAX)
+        self.scene.integrator.max_segments()
     }
 
     /// Weight of emission `le` found at the end of the current ray (the one function for every emission
@@ -348,10 +349,16 @@ impl<'a> PathTracer<'a> {
         let material = self.materials[si.material as usize];
         let sampler = &mut path.sampler;
 
-        // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs.
+        // Caustics T1 at x with probability P (method.md §3.1), and ΔA(x), which T2 needs. A photon of m
+        // delta bounces makes a path of depth + m + 1 segments here: T1 counts only those that fit
+        // max_depth (method.md §2.1), and at the last vertex none does (nor can T2 reach a light through a
+        // delta vertex from it), so there is no estimate to make.
         let mut area = None;
         let alpha = if path.first_non_delta { self.alpha } else { 1.0 };
-        if let Some(looked_up) = looked_up {
+        let longest = looked_up.map_or(0, |_| longest_chain(path.depth, self.max_depth()));
+        if let (Some(_), 0) = (looked_up, longest) {
+            area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
+        } else if let Some(looked_up) = looked_up {
             let rx = self.caustics.receiver(&si, bsdf, wo_world, wo_local, looked_up);
             let p_gather = self.caustics.gather_probability(&rx, path.beta, path.l.max(path.pixel_mean), scratch);
             // The roulette's number is drawn whether P < 1 or not, and independent of the pixel's other
@@ -361,7 +368,7 @@ impl<'a> PathTracer<'a> {
             // direction after a dark sample leaned toward bright ones (method.md §3.1; +7.5 % on the
             // cornell ceiling in `pm` with 4-spp passes).
             if sampler.next_independent_1d() < p_gather {
-                let g = self.caustics.gather(&rx, alpha, scratch);
+                let g = self.caustics.gather(&rx, alpha, longest, scratch);
                 stats.knn_queries += 1;
                 stats.q1.merge(&g.q1);
                 path.l += path.beta * g.l1 / p_gather;
@@ -394,7 +401,7 @@ impl<'a> PathTracer<'a> {
         } else {
             path.delta_vertices = 0;
             path.prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
-            path.caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha });
+            path.caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha, longest_chain: longest });
         }
 
         // Russian roulette (survival ∝ throughput, capped at 0.95).

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 
 use super::emission::PhotonEmission;
 use super::kdtree::{KdTree, KdTreeError};
-use super::record::Photon;
+use super::record::{Photon, PhotonList};
 use crate::accel::Accel;
 use crate::bsdf::TransportMode;
 use crate::light::Light;
@@ -36,14 +36,41 @@ use crate::scene::Scene;
 /// Longest chain of delta bounces a photon follows.
 pub const MAX_DELTA_CHAIN: u32 = 16;
 
-/// Whether the photon pass can store a photon at the end of a chain of `delta_vertices` delta-sampled
-/// vertices between the light and the first non-delta vertex (`1..=`[`MAX_DELTA_CHAIN`]). The photon
-/// pass cuts every other chain, so T1 cannot make such a path and T2 must take it whole (`w₂ = 1`):
-/// both sides ask this one function (method.md §4).
+// The kd-tree keeps a photon's chain in one byte (`record::DecodedPhoton::chain`).
+const _: () = assert!(MAX_DELTA_CHAIN <= u8::MAX as u32);
+
+/// The longest delta chain T1 may use at a non-delta eye vertex `x` that the eye path reached in
+/// `eye_depth` segments, under `max_depth` (in segments, `u32::MAX` for unlimited; Mitsuba's `max_depth`,
+/// `IntegratorSettings::max_segments`). A photon that made `m` delta bounces, gathered at `x`, completes a
+/// light path of `eye_depth + m + 1` segments (the chain's `m` delta vertices are joined by `m + 1`
+/// segments from the light to `x`); the path tracer, like Mitsuba's (`path.cpp`: no vertex past
+/// `max_depth`), makes no path longer than `max_depth`, so neither may T1 (method.md §2.1). The photon
+/// pass follows at most [`MAX_DELTA_CHAIN`] bounces as well. 0 where no photon fits: at the eye path's
+/// last vertex, and everywhere when `max_depth < 3`. This is the one rule the photon pass (at
+/// `eye_depth` 1, the shallowest eye vertex), the density estimate and T2's weight ask
+/// ([`photon_chain_reaches`]).
 #[must_use]
 #[inline]
-pub fn photon_chain_reaches(delta_vertices: u32) -> bool {
-    (1..=MAX_DELTA_CHAIN).contains(&delta_vertices)
+pub fn longest_chain(eye_depth: u32, max_depth: u32) -> u32 {
+    max_depth.saturating_sub(eye_depth.saturating_add(1)).min(MAX_DELTA_CHAIN)
+}
+
+/// Whether a path whose non-delta eye vertex lies `eye_depth` segments from the camera, reached from the
+/// light through `chain` delta vertices, has at most `max_depth` segments: `eye_depth + chain + 1 ≤
+/// max_depth` ([`longest_chain`] without the photon pass's cap).
+#[must_use]
+fn path_fits(eye_depth: u32, chain: u32, max_depth: u32) -> bool {
+    u64::from(eye_depth) + u64::from(chain) + 1 <= u64::from(max_depth)
+}
+
+/// Whether T1 can make a path whose non-delta eye vertex `x` has `delta_vertices` delta-sampled vertices
+/// between it and the light, when [`longest_chain`] at `x` is `longest`: `1..=longest`. The photon pass
+/// cuts every longer chain and the density estimate leaves out the photons of chains that do not fit, so
+/// T2 must take such a path whole (`w₂ = 1`) where it makes it (method.md §4).
+#[must_use]
+#[inline]
+pub fn photon_chain_reaches(delta_vertices: u32, longest: u32) -> bool {
+    (1..=longest).contains(&delta_vertices)
 }
 
 /// Whether `light` takes part in the photon pass (area lights, env maps and the delta lights do;
@@ -104,7 +131,8 @@ pub struct PhotonPassStats {
 
 #[derive(Default)]
 struct Traced {
-    photons: Vec<Photon>,
+    /// The stored photons with their delta chains.
+    photons: PhotonList,
     /// Photons traced (stored or not): N's share of this range.
     emitted: u64,
     rays: u64,
@@ -138,6 +166,10 @@ struct Emitter<'a> {
     emission: &'a PhotonEmission,
     /// [`Scene::delta_bounds`]: emitted rays that miss it are discarded untraced.
     delta_bounds: Aabb,
+    /// The scene's `max_depth` in segments (`IntegratorSettings::max_segments`).
+    max_depth: u32,
+    /// [`longest_chain`] at eye depth 1: no eye vertex can use a longer chain, so none is traced.
+    longest_chain: u32,
     seed: u64,
     pass: u64,
     stop: &'a (dyn Fn() -> bool + Sync),
@@ -164,7 +196,7 @@ impl Emitter<'_> {
             })
             .collect();
         for t in chunks {
-            out.photons.extend_from_slice(&t.photons);
+            out.photons.extend(&t.photons);
             out.emitted += t.emitted;
             out.rays += t.rays;
             out.capped += t.capped;
@@ -188,7 +220,9 @@ pub fn trace_photons(
     let emission = PhotonEmission::new(scene);
     let mut traced = Traced::default();
     if let Some(emission) = &emission {
-        let em = Emitter { scene, accel, emission, delta_bounds: scene.delta_bounds(), seed, pass, stop };
+        let max_depth = scene.integrator.max_segments();
+        let longest_chain = longest_chain(1, max_depth);
+        let em = Emitter { scene, accel, emission, delta_bounds: scene.delta_bounds(), max_depth, longest_chain, seed, pass, stop };
         match budget {
             PhotonBudget::Emitted(n) => em.trace_range(0, n, &mut traced),
             PhotonBudget::Stored(target) => {
@@ -215,7 +249,8 @@ pub fn trace_photons(
     let emitted = traced.emitted;
     // Power = Le·|cos θ′| / (N·p) (method.md §2): the 1/N is applied now that N is known.
     let inv_n = if emitted > 0 { 1.0 / emitted as f32 } else { 0.0 };
-    let photons: Vec<Photon> = traced.photons.iter().map(|p| p.with_power(p.power() * inv_n)).collect();
+    let mut photons = traced.photons;
+    photons.scale_power(inv_n);
     let seconds_trace = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let stored = photons.len() as u64;
@@ -258,14 +293,17 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
         let bsdf = &scene.bsdfs[si.material as usize];
         let wi_world = -ray.dir.normalize();
         if delta_bounces > 0 && bsdf.has_non_delta() {
-            out.photons.push(Photon::new(si.p, wi_world, power, pdf_emit));
+            out.photons.push(Photon::new(si.p, wi_world, power, pdf_emit), delta_bounces);
         }
         if !bsdf.has_delta() {
             return;
         }
-        if !photon_chain_reaches(delta_bounces + 1) {
-            // One more delta bounce would make a chain no photon may store (T2 takes those paths).
-            out.capped += 1;
+        if !photon_chain_reaches(delta_bounces + 1, em.longest_chain) {
+            // One more delta bounce would make a chain no photon may store. Counted when a path of that
+            // chain still fits max_depth (T2 takes those paths whole); a longer one neither technique makes.
+            if path_fits(1, delta_bounces + 1, em.max_depth) {
+                out.capped += 1;
+            }
             return;
         }
         let wo_local = si.frame.to_local(wi_world);
@@ -280,5 +318,33 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
         }
         delta_bounces += 1;
         ray = si.spawn_ray(si.frame.to_world(bs.wi_local));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one rule against the path lengths it stands for: at eye depth d a chain of m delta vertices is
+    /// T1's when 1 ≤ m ≤ `MAX_DELTA_CHAIN` and the path's d + m + 1 segments fit max_depth.
+    #[test]
+    fn the_longest_chain_is_the_one_that_fits_max_depth() {
+        for max_depth in [0, 1, 2, 3, 4, 6, 17, 18, 19, 40, u32::MAX - 1, u32::MAX] {
+            for d in (1..40).chain([u32::MAX - 2, u32::MAX - 1, u32::MAX]) {
+                let longest = longest_chain(d, max_depth);
+                for m in 0..=MAX_DELTA_CHAIN + 2 {
+                    let fits = (1..=MAX_DELTA_CHAIN).contains(&m) && u64::from(d) + u64::from(m) + 1 <= u64::from(max_depth);
+                    assert_eq!(photon_chain_reaches(m, longest), fits, "max_depth {max_depth}, d {d}, m {m}");
+                    assert_eq!(path_fits(d, m, max_depth), u64::from(d) + u64::from(m) < u64::from(max_depth));
+                }
+            }
+        }
+        // Unlimited: the photon pass's cap alone, as before max_depth counted.
+        assert_eq!(longest_chain(1, u32::MAX), MAX_DELTA_CHAIN);
+        assert_eq!(longest_chain(1_000, u32::MAX), MAX_DELTA_CHAIN);
+        // The stokes Cornell box (max_depth 6): 4 delta bounces seen directly, none at the last vertex.
+        assert_eq!((longest_chain(1, 6), longest_chain(4, 6), longest_chain(5, 6)), (4, 1, 0));
+        // Below 3 segments no caustic path exists.
+        assert_eq!(longest_chain(1, 2), 0);
     }
 }

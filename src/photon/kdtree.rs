@@ -29,7 +29,7 @@ use std::ops::ControlFlow;
 use rayon::prelude::*;
 
 use super::dirbox::DirBox;
-use super::record::{DecodedPhoton, Photon};
+use super::record::{DecodedPhoton, Photon, PhotonList};
 use crate::math::{Aabb, Vec3, Vec3A, Vec4};
 
 /// Default photons per leaf. Measured with `cargo bench --no-default-features --bench kdtree -- --ours-only
@@ -349,10 +349,19 @@ fn below(x: f32) -> f32 {
     }
 }
 
+/// A photon as the build sorts it: its position and its index in the build's input. The records (32 bytes)
+/// and their chains ([`PhotonList`]) move once, into tree order, after the sort; a sort over records and
+/// chains together would need both in one element (the chain has no room in the record).
+#[derive(Clone, Copy, Debug)]
+struct Keyed {
+    position: [f32; 3],
+    index: u32,
+}
+
 /// Tight bounds of the photons' positions (parallel for large slices).
-fn bounds_of(photons: &[Photon]) -> Bounds {
+fn bounds_of(photons: &[Keyed]) -> Bounds {
     const CHUNK: usize = 1 << 15;
-    let seq = |ps: &[Photon]| ps.iter().fold(Bounds::EMPTY, |b, p| b.grow(p.position_array()));
+    let seq = |ps: &[Keyed]| ps.iter().fold(Bounds::EMPTY, |b, p| b.grow(&p.position));
     if photons.len() > 2 * CHUNK {
         photons.par_chunks(CHUNK).map(seq).reduce(|| Bounds::EMPTY, Bounds::union)
     } else {
@@ -362,7 +371,7 @@ fn bounds_of(photons: &[Photon]) -> Bounds {
 
 /// Builds the subtree of height `h` over `photons` (whose tight bounds are `bounds`) into `nodes`, which has
 /// exactly `2^h − 1` slots.
-fn build_recursive(photons: &mut [Photon], bounds: Bounds, nodes: &mut [Node], h: u32) {
+fn build_recursive(photons: &mut [Keyed], bounds: Bounds, nodes: &mut [Node], h: u32) {
     debug_assert_eq!(nodes.len(), (1usize << h) - 1);
     if h == 0 {
         return;
@@ -371,7 +380,7 @@ fn build_recursive(photons: &mut [Photon], bounds: Bounds, nodes: &mut [Node], h
     let mid = photons.len() / 2;
     if mid < photons.len() {
         // total_cmp: a total order that agrees with `<` on the finite positions the tree keeps.
-        photons.select_nth_unstable_by(mid, |a, b| a.position_array()[axis].total_cmp(&b.position_array()[axis]));
+        photons.select_nth_unstable_by(mid, |a, b| a.position[axis].total_cmp(&b.position[axis]));
     }
     let (left, right) = photons.split_at_mut(mid);
     let big = left.len() + right.len() >= PARALLEL_BUILD_THRESHOLD;
@@ -396,23 +405,30 @@ fn build_recursive(photons: &mut [Photon], bounds: Bounds, nodes: &mut [Node], h
 
 impl KdTree {
     /// Builds the tree with [`DEFAULT_LEAF_SIZE`] photons per leaf. See [`KdTree::build_with_leaf_size`].
-    pub fn build(photons: Vec<Photon>) -> Result<Self, KdTreeError> {
+    pub fn build(photons: impl Into<PhotonList>) -> Result<Self, KdTreeError> {
         Self::build_with_leaf_size(photons, DEFAULT_LEAF_SIZE)
     }
 
-    /// Builds the tree (in parallel) with at most `leaf_size` photons per leaf. Photons whose position is
-    /// not finite are dropped (a bug upstream; counted in [`KdTree::dropped_non_finite`]).
-    pub fn build_with_leaf_size(mut photons: Vec<Photon>, leaf_size: usize) -> Result<Self, KdTreeError> {
+    /// Builds the tree (in parallel) with at most `leaf_size` photons per leaf, each photon's chain
+    /// ([`PhotonList`]) moved with it into [`KdTree::decoded`]. Photons whose position is not finite are
+    /// dropped (a bug upstream; counted in [`KdTree::dropped_non_finite`]).
+    pub fn build_with_leaf_size(photons: impl Into<PhotonList>, leaf_size: usize) -> Result<Self, KdTreeError> {
         if leaf_size == 0 {
             return Err(KdTreeError::ZeroLeafSize);
         }
-        let before = photons.len();
-        photons.retain(|p| p.position().is_finite());
-        let dropped_non_finite = before - photons.len();
-        let n = photons.len();
-        if u32::try_from(n).is_err() {
-            return Err(KdTreeError::TooManyPhotons { count: n });
+        let (input, chains) = photons.into().into_parts();
+        let before = input.len();
+        if u32::try_from(before).is_err() {
+            return Err(KdTreeError::TooManyPhotons { count: before });
         }
+        let mut keyed: Vec<Keyed> = input
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.position().is_finite())
+            .map(|(i, p)| Keyed { position: *p.position_array(), index: i as u32 })
+            .collect();
+        let dropped_non_finite = before - keyed.len();
+        let n = keyed.len();
         let mut depth = 0u32;
         while n.div_ceil(1usize << depth) > leaf_size {
             depth += 1;
@@ -423,10 +439,16 @@ impl KdTree {
             };
             (1usize << depth) - 1
         ];
-        let root = bounds_of(&photons);
-        build_recursive(&mut photons, root, &mut nodes, depth);
+        let root = bounds_of(&keyed);
+        build_recursive(&mut keyed, root, &mut nodes, depth);
+        // The records and chains in tree order, one move each. At most 82 bytes per photon are held here
+        // (the input, the sorted keys, the records in order and the chains), against the 76 of the
+        // finished tree's records, positions and decoded photons (`render::memory` estimates 180 a map).
+        let photons: Vec<Photon> = keyed.par_iter().map(|k| input[k.index as usize]).collect();
+        let chains: Vec<u8> = keyed.par_iter().map(|k| chains[k.index as usize]).collect();
+        drop((keyed, input));
         let positions = Positions::new(&photons);
-        let decoded: Vec<DecodedPhoton> = photons.iter().map(Photon::decoded).collect();
+        let decoded: Vec<DecodedPhoton> = photons.par_iter().zip(&chains).map(|(p, &chain)| p.decoded(chain)).collect();
         let mut leaves = Vec::with_capacity(1 << depth);
         collect_leaves(&nodes, 0, depth, 0, n, NodeBox::new(root), &mut leaves);
         let leaf_sums = leaves
@@ -466,7 +488,7 @@ impl KdTree {
         &self.photons
     }
 
-    /// `photons()[i].decoded()` for every stored photon, decoded once (tree order).
+    /// `photons()[i].decoded(chain)` for every stored photon with its delta chain, decoded once (tree order).
     #[must_use]
     pub fn decoded(&self) -> &[DecodedPhoton] {
         &self.decoded
@@ -1092,5 +1114,48 @@ mod tests {
             assert!(t.memory_bytes() >= 100_000 * 32);
             validate(&t);
         }
+    }
+
+    /// Each photon's chain reaches [`KdTree::decoded`] beside it, non-finite photons dropped with theirs;
+    /// and the tree order is the one a selection over the records themselves gives (the build sorts
+    /// position-and-index keys instead, [`Keyed`]): the order of every estimate's sum, hence every image,
+    /// is what it was before chains existed. Coordinates on a coarse grid make many ties; 40,000 photons
+    /// take the parallel path of the build.
+    #[test]
+    fn chains_follow_their_photons_and_the_order_is_the_records() {
+        let mut s = crate::sampler::Sampler::for_key(10, 0, 0);
+        let mut list = PhotonList::default();
+        for i in 0..40_000u32 {
+            let chain = 1 + i % crate::photon::MAX_DELTA_CHAIN;
+            let p = Vec3::new((s.next_1d() * 20.0).floor(), (s.next_1d() * 3.0).floor(), s.next_1d());
+            // The power names the chain, so that the test can read it back from the record.
+            list.push(Photon::new(p, Vec3::Z, Vec3::splat(chain as f32), 1.0), chain);
+            if i % 10_000 == 0 {
+                list.push(Photon::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Z, Vec3::splat(99.0), 1.0), 3);
+            }
+        }
+        let t = KdTree::build(list.clone()).unwrap();
+        assert_eq!((t.len(), t.dropped_non_finite()), (40_000, 4));
+        for (p, d) in t.photons().iter().zip(t.decoded()) {
+            assert_eq!(u32::from(d.chain), p.power().x as u32);
+            assert_eq!(*d, p.decoded(d.chain));
+        }
+        // The build as it was: the records themselves selected at each node's median.
+        fn select(photons: &mut [Photon], h: u32) {
+            if h == 0 {
+                return;
+            }
+            let axis = photons.iter().fold(Bounds::EMPTY, |b, p| b.grow(p.position_array())).largest_axis();
+            let mid = photons.len() / 2;
+            if mid < photons.len() {
+                photons.select_nth_unstable_by(mid, |a, b| a.position_array()[axis].total_cmp(&b.position_array()[axis]));
+            }
+            let (left, right) = photons.split_at_mut(mid);
+            select(left, h - 1);
+            select(right, h - 1);
+        }
+        let mut records: Vec<Photon> = list.photons().iter().copied().filter(|p| p.position().is_finite()).collect();
+        select(&mut records, t.depth);
+        assert!(records == t.photons(), "the tree order differs from a selection over the records");
     }
 }

@@ -11,9 +11,9 @@ pub mod occupancy;
 pub mod record;
 
 pub use kdtree::{KdTree, KdTreeError, KnnMemory, KnnResult, LeavesNear, Neighbor, SearchFrom};
-pub use emit::{light_emits_photons, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
+pub use emit::{light_emits_photons, longest_chain, photon_chain_reaches, trace_photons, PhotonBudget, PhotonMap, PhotonPassStats, MAX_DELTA_CHAIN};
 pub use emission::PhotonEmission;
 pub use counts::PhotonCounts;
 pub use dirbox::DirBox;
 pub use occupancy::{CellAt, Near, OccupancyGrid, PhotonsNear};
-pub use record::{DecodedPhoton, Photon};
+pub use record::{DecodedPhoton, Photon, PhotonList};

@@ -410,7 +410,7 @@ mod tests {
                 }
             })
             .collect();
-        let total: Vec3 = photons.iter().map(|p| p.decoded().power).sum();
+        let total: Vec3 = photons.iter().map(|p| p.power()).sum();
         let tree = KdTree::build(photons.clone()).unwrap();
         let radius = 0.1;
         let grid = OccupancyGrid::new(&tree, radius).unwrap();
@@ -418,13 +418,13 @@ mod tests {
         for _ in 0..5000 {
             let q = Vec3::new(6.0 * s.next_1d() - 3.0, 0.2 * s.next_1d() - 0.1, 6.0 * s.next_1d() - 3.0);
             let near: Vec<&Photon> = photons.iter().filter(|p| p.position().distance_squared(q) <= radius * radius).collect();
-            let within: Vec3 = near.iter().map(|p| p.decoded().power).sum();
+            let within: Vec3 = near.iter().map(|p| p.power()).sum();
             let bound = grid.photons_near(q).expect("lists were built");
             assert!(usize::from(bound.count) >= near.len().min(255), "{q}: count {} below the {} photons within the radius", bound.count, near.len());
             assert!(bound.power >= within.max_element() * (1.0 - 1e-5), "{q}: bound {} below the power within the radius {within}", bound.power);
             assert!(bound.power <= total.max_element() * (1.0 + 1e-5), "{q}: bound {} above the map's power", bound.power);
             for p in &near {
-                let w = p.decoded().wi;
+                let w = p.wi_world();
                 let inside = w.cmpge(bound.dirs.min() - Vec3::splat(1e-6)).all() && w.cmple(bound.dirs.max() + Vec3::splat(1e-6)).all();
                 assert!(inside, "{q}: direction {w} outside [{}, {}]", bound.dirs.min(), bound.dirs.max());
             }
@@ -438,7 +438,7 @@ mod tests {
             // rounded outward by at most a step.
             if q.x > 2.35 && bound.power > 0.0 {
                 narrow += 1;
-                let red = photons[0].decoded().wi;
+                let red = photons[0].wi_world();
                 let (lo, hi) = (red - bound.dirs.min(), bound.dirs.max() - red);
                 assert!(lo.min(hi).min_element() >= -1e-6 && lo.max(hi).max_element() <= 1.0 / DIR_STEPS, "{q}: [{}, {}] for {red}", bound.dirs.min(), bound.dirs.max());
             }

@@ -15,6 +15,19 @@
 //! (grid step 1/32767, the axes exact), choosing the best of the four surrounding grid points at encode time.
 //! Measured worst-case angular error over 10⁶ random directions: 4.3·10⁻⁵ rad (0.0025°); the test asserts
 //! < 5·10⁻⁵ rad. (Plain round-to-nearest gives 6.5·10⁻⁵ rad.)
+//!
+//! **The delta chain** `m` (1 ..= `MAX_DELTA_CHAIN`, the photon's delta bounces; method.md §2.1: T1 may use
+//! the photon at an eye vertex of depth d only if `d + m + 1 ≤ max_depth`) is not in the record: every one of
+//! its 256 bits is a value bit the estimate reads (the octahedral code uses 65,535 of each u16's 65,536
+//! values), so any byte taken for the chain would change every image, also of scenes without a depth limit:
+//! 2 × 12-bit directions instead of 16 make the grid step, hence the worst angular error, 16× larger
+//! (≈ 7·10⁻⁴ rad), and 4 bits of p_emit's mantissa move q₁ (and ∞, a delta light's p_emit, cannot carry
+//! them: it would read as NaN). The chain
+//! rides beside the records instead ([`PhotonList`], one byte per photon while the photon pass runs), the
+//! kd-tree's build moves it with its photon, and it lands in [`DecodedPhoton`]'s four bytes of padding
+//! (`chain`): the gather reads it from the 32-byte line its acceptance test has already loaded, so the
+//! filter costs no memory and no extra cache line, and the record and the images of scenes with
+//! `max_depth = -1` stay bit for bit what they were.
 
 use crate::math::{Vec2, Vec3};
 
@@ -43,9 +56,79 @@ pub struct DecodedPhoton {
     pub pdf_emit: f32,
     /// [`Photon::power`].
     pub power: Vec3,
+    /// The photon's delta bounces, 1 ..= `MAX_DELTA_CHAIN` ([`PhotonList::push`]), in the padding the
+    /// alignment leaves (the size assertion below holds with it).
+    pub chain: u8,
 }
 
 const _: () = assert!(std::mem::size_of::<DecodedPhoton>() == 32);
+
+/// Photons in the photon pass's order with their delta chains, one byte each beside the 32-byte records
+/// (the module's docs say why not inside them): what the kd-tree is built over
+/// ([`crate::photon::KdTree::build`]). A photon list made from bare records (`From<Vec<Photon>>`, for
+/// tests and benchmarks) gives every photon the shortest chain, 1.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PhotonList {
+    photons: Vec<Photon>,
+    chains: Vec<u8>,
+}
+
+impl PhotonList {
+    /// Adds `photon`, stored after `chain` delta bounces (1 ..= `MAX_DELTA_CHAIN`).
+    pub fn push(&mut self, photon: Photon, chain: u32) {
+        debug_assert!((1..=crate::photon::MAX_DELTA_CHAIN).contains(&chain), "delta chain {chain}");
+        self.photons.push(photon);
+        self.chains.push(chain.min(u32::from(u8::MAX)) as u8);
+    }
+
+    /// Appends `other`'s photons.
+    pub fn extend(&mut self, other: &PhotonList) {
+        self.photons.extend_from_slice(&other.photons);
+        self.chains.extend_from_slice(&other.chains);
+    }
+
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+
+    /// The records, in order.
+    #[must_use]
+    pub fn photons(&self) -> &[Photon] {
+        &self.photons
+    }
+
+    /// The delta chains, in the records' order.
+    #[must_use]
+    pub fn chains(&self) -> &[u8] {
+        &self.chains
+    }
+
+    /// Multiplies every photon's power by `scale` (the photon pass's 1/N).
+    pub fn scale_power(&mut self, scale: f32) {
+        for p in &mut self.photons {
+            *p = p.with_power(p.power() * scale);
+        }
+    }
+
+    /// The records and their chains, of one length.
+    #[must_use]
+    pub fn into_parts(self) -> (Vec<Photon>, Vec<u8>) {
+        (self.photons, self.chains)
+    }
+}
+
+impl From<Vec<Photon>> for PhotonList {
+    fn from(photons: Vec<Photon>) -> Self {
+        let chains = vec![1; photons.len()];
+        PhotonList { photons, chains }
+    }
+}
 
 /// `±1` with the sign of `v`, and `+1` for ±0 (so the octahedral fold never produces a zero factor).
 #[inline]
@@ -182,10 +265,11 @@ impl Photon {
         self.pdf_emit
     }
 
-    /// The fields the density estimate reads, decoded.
+    /// The fields the density estimate reads, decoded, with the photon's delta `chain` (kept beside the
+    /// record, [`PhotonList`]).
     #[must_use]
-    pub fn decoded(&self) -> DecodedPhoton {
-        DecodedPhoton { wi: self.wi_world(), pdf_emit: self.pdf_emit, power: self.power() }
+    pub fn decoded(&self, chain: u8) -> DecodedPhoton {
+        DecodedPhoton { wi: self.wi_world(), pdf_emit: self.pdf_emit, power: self.power(), chain }
     }
 }
 
@@ -253,5 +337,28 @@ mod tests {
         for w in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
             assert_eq!(Photon::new(pos, w, power, 1.0).wi_world(), w, "axes are exact");
         }
+    }
+
+    /// The chain travels beside the record, through the power's scaling, into the decoded photon; the
+    /// record itself is what it was.
+    #[test]
+    fn the_chain_rides_beside_the_record() {
+        let mut list = PhotonList::default();
+        let record = |i: u32| Photon::new(Vec3::splat(i as f32), Vec3::Z, Vec3::new(1.0, 2.0, 3.0), 0.5);
+        for chain in 1..=crate::photon::MAX_DELTA_CHAIN {
+            list.push(record(chain), chain);
+        }
+        let mut more = PhotonList::default();
+        more.push(record(0), 3);
+        list.extend(&more);
+        list.scale_power(0.25);
+        assert_eq!(list.len(), 17);
+        for (i, (p, &c)) in list.photons().iter().zip(list.chains()).enumerate() {
+            let (at, chain) = if i == 16 { (0, 3) } else { (i as u32 + 1, i as u8 + 1) };
+            assert_eq!(c, chain);
+            assert_eq!(*p, record(at).with_power(Vec3::new(0.25, 0.5, 0.75)));
+            assert_eq!(p.decoded(c).chain, chain);
+        }
+        assert_eq!(PhotonList::from(vec![record(1), record(2)]).chains(), &[1, 1]);
     }
 }

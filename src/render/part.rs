@@ -26,6 +26,14 @@
 //! **Identity.** Every part stores a [`fingerprint`] of the scene (its geometry, materials, lights, camera),
 //! the settings (seed included), the backend, the program version and N; `merge` refuses parts whose
 //! fingerprints differ, and checks that each index 0..N−1 is there exactly once.
+//!
+//! **Cut parts.** A part interrupted by a signal (Slurm's SIGTERM at a job's time limit, `scancel`, Ctrl-C)
+//! is still written, with what it finished: its completed passes, and the tiles of the pass it was in
+//! that were done (the film counts samples per pixel, so every pixel stays the mean of its samples). Its
+//! description says so (`phases.partial`, [`PartInfo::is_partial`]). `merge` takes such a part only with
+//! `--allow-missing`, as it takes a set with missing parts, and its stats give the samples per pixel really
+//! merged ([`MergeStats::spp_merged`]): the image is an unbiased render with fewer samples, not the one the
+//! whole render would have made.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -178,6 +186,22 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
+    /// The part was interrupted and holds only the passes (and tiles of its last pass) it finished.
+    #[must_use]
+    pub fn is_partial(&self) -> bool {
+        self.phases.partial
+    }
+
+    /// The passes of the whole render that this part's share takes: its own with a share of the passes
+    /// (p mod N = I), all of them with a share of the tiles.
+    #[must_use]
+    pub fn passes_in_share(&self) -> u32 {
+        match self.share.as_str() {
+            "passes" => self.passes.saturating_sub(self.part.index).div_ceil(self.part.count.max(1)),
+            _ => self.passes,
+        }
+    }
+
     /// The share's name as stored in [`PartInfo::share`].
     #[must_use]
     pub fn share_name(share: Share) -> &'static str {
@@ -204,6 +228,8 @@ pub enum MergeError {
     Duplicate { part: Part, first: PathBuf, second: PathBuf },
     #[error("{} missing (have {}): run {} again, or merge with --allow-missing", missing_text(*count, missing), have.iter().map(|i| format!("{i}/{count}")).collect::<Vec<_>>().join(", "), if missing.len() == 1 { "it" } else { "them" })]
     Missing { count: u32, missing: Vec<u32>, have: Vec<u32> },
+    #[error("{}: part {part} was interrupted after {done} of its {of} passes: run it again, or merge with --allow-missing (the image then has fewer samples)", path.display())]
+    Partial { path: PathBuf, part: Part, done: u32, of: u32 },
     #[error("{path}: {source}")]
     Film { path: PathBuf, source: FilmError },
 }
@@ -245,8 +271,8 @@ pub fn read_part(path: &Path) -> Result<PartFile, MergeError> {
 }
 
 /// Checks that `parts` belong to one render (one fingerprint: the one most parts have, the first part's
-/// on a tie) and hold each index at most once; unless `allow_missing`, every index 0..N−1 exactly once.
-/// Returns the missing indices (empty for a full set).
+/// on a tie) and hold each index at most once; unless `allow_missing`, every index 0..N−1 exactly once,
+/// and none of them cut short ([`PartInfo::is_partial`]). Returns the missing indices (empty for a full set).
 pub fn check_set(parts: &[PartFile], allow_missing: bool) -> Result<Vec<u32>, MergeError> {
     let first = parts.first().ok_or(MergeError::Empty)?;
     let mut votes: Vec<(&str, usize)> = Vec::new();
@@ -282,6 +308,9 @@ pub fn check_set(parts: &[PartFile], allow_missing: bool) -> Result<Vec<u32>, Me
         let have = (0..count).filter(|&i| seen[i as usize].is_some()).collect();
         return Err(MergeError::Missing { count, missing, have });
     }
+    if let Some(p) = parts.iter().find(|p| p.info.is_partial()).filter(|_| !allow_missing) {
+        return Err(MergeError::Partial { path: p.path.clone(), part: p.info.part, done: p.info.phases.passes_rendered, of: p.info.passes_in_share() });
+    }
     Ok(missing)
 }
 
@@ -295,7 +324,15 @@ pub struct MergeStats {
     pub merged: Vec<u32>,
     /// Indices of the parts that were missing (only with `--allow-missing`).
     pub missing: Vec<u32>,
+    /// Indices of the parts that were interrupted and merged with what they finished (only with
+    /// `--allow-missing`).
+    pub partial: Vec<u32>,
+    /// Samples per pixel of the whole render.
     pub spp: u32,
+    /// Samples per pixel really merged: their mean over the crop window, and the fewest any pixel has
+    /// (`spp` for a full set; less with missing or partial parts; 0 where a missing part's tiles are).
+    pub spp_merged: f64,
+    pub spp_merged_min: u64,
     pub passes: u32,
     /// Σ over the parts of their wall-clock seconds (the machine time the render cost), and the longest.
     pub seconds_parts_sum: f64,
@@ -333,7 +370,10 @@ pub fn merge_parts(mut parts: Vec<PartFile>, allow_missing: bool) -> Result<(Fil
         share: info.share.clone(),
         merged: parts.iter().map(|p| p.info.part.index).collect(),
         missing,
+        partial: parts.iter().filter(|p| p.info.is_partial()).map(|p| p.info.part.index).collect(),
         spp: info.spp,
+        spp_merged: film.samples_per_pixel(),
+        spp_merged_min: film.sums().iter().map(|p| p.count).min().unwrap_or(0),
         passes: info.passes,
         seconds_parts_sum: parts.iter().map(|p| p.info.seconds_total).sum(),
         seconds_parts_max: parts.iter().map(|p| p.info.seconds_total).fold(0.0, f64::max),

@@ -386,7 +386,7 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
                 let expected = if s.kind == ShapeType::Obj { ".obj" } else { ".ply or .ply.gz" };
                 return Err(ctx.key_error(
                     &join_key(key, "filename"),
-                    format!("a `{}` shape needs a {expected} file, got {filename:?}", s.kind.name()),
+                    format!("a `{}` shape needs a {expected} file, got {}", s.kind.name(), super::error::shown(filename)),
                 ));
             }
             Geometry::File {

@@ -16,7 +16,7 @@ use super::{is_xml, Scene};
 /// The text of the scene at `input` converted to the format of `output` (`.xml`: Mitsuba 3 XML, else
 /// TOML), with file names relative to `output`'s directory; `params` are `-D` values of an XML input.
 pub fn convert_scene(input: &Path, output: &Path, params: &BTreeMap<String, String>) -> Result<String, SceneError> {
-    let text = std::fs::read_to_string(input).map_err(|source| SceneError::Read { file: input.to_path_buf(), source })?;
+    let text = super::read_scene_file(input)?;
     let in_dir = input.parent().unwrap_or_else(|| Path::new("."));
     // Build it (every check of a render), then take its description.
     Scene::load_with_params(input, params)?;

@@ -176,6 +176,18 @@ pub struct LoadOptions {
     pub replace_integrator: bool,
 }
 
+/// The text of the scene file named on the command line (TOML or XML), read as an included file is read
+/// (`xml::read_regular`): a regular file of at most `xml::MAX_INCLUDE_BYTES` (256 MiB), so that a device,
+/// a FIFO or a huge file is refused instead of read without bound.
+pub(crate) fn read_scene_file(path: &Path) -> Result<String, SceneError> {
+    let read = |source| SceneError::Read { file: path.to_path_buf(), source };
+    xml::read_regular(path, xml::MAX_INCLUDE_BYTES).map_err(|e| match e {
+        xml::Unreadable::Io(source) => read(source),
+        xml::Unreadable::Directory | xml::Unreadable::NotRegular => read(std::io::Error::other(format!("it is {e}; a scene must be a regular file"))),
+        xml::Unreadable::TooLarge { .. } => read(std::io::Error::other(format!("it is larger than {} MiB, the bound on a scene file", xml::MAX_INCLUDE_BYTES >> 20))),
+    })
+}
+
 impl Scene {
     /// Reads and builds the scene file at `path`: Mitsuba 3 XML when its name ends in `.xml` (any case),
     /// TOML otherwise; file names inside are relative to its directory.
@@ -192,10 +204,7 @@ impl Scene {
     /// [`Scene::load`] as `options` say.
     pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         let params = &options.params;
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            file: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_scene_file(path)?;
         let base_dir = path.parent().unwrap_or_else(|| Path::new("."));
         if is_xml(path) {
             let convert = xml::ConvertOptions { replace_integrator: options.replace_integrator };

@@ -216,6 +216,15 @@ pub struct IntegratorSettings {
     pub caustics: CausticsSettings,
 }
 
+impl IntegratorSettings {
+    /// `max_depth` as a number of path segments, `u32::MAX` for unlimited (-1): the bound the path tracer
+    /// and the photon pass compare path lengths with.
+    #[must_use]
+    pub fn max_segments(&self) -> u32 {
+        u32::try_from(self.max_depth).unwrap_or(u32::MAX)
+    }
+}
+
 impl Default for IntegratorSettings {
     fn default() -> Self {
         Self {

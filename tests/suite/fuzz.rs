@@ -1,32 +1,53 @@
-//! Fuzzing of every reader of outside input (issue 13 §4): the TOML scene loader, OBJ, PLY, PLY.gz, EXR and
-//! HDR. A seeded mutation fuzzer (no extra dependency, deterministic): each round takes a valid seed input,
-//! applies 1–8 random byte-level mutations (bit flips, interesting bytes, insertions, deletions, duplicated
-//! and truncated ranges, for text also digit runs and extreme numbers), and feeds the result to the reader,
-//! which must return `Ok` or an error whose message names the file — never panic. Inputs that panicked
-//! once are kept under `tests/data/fuzz/<reader>/` and replayed by every run.
+//! Fuzzing of every reader of outside input (issues 13 §4 and 40 §6): the scene readers (TOML and Mitsuba
+//! XML, with its includes), the meshes (OBJ, PLY, PLY.gz, Mitsuba `serialized`), the images (EXR, HDR) and
+//! `merge`'s part files (partial-film EXR). A seeded mutation fuzzer (no extra dependency, deterministic):
+//! input k of a reader is its k-th kept corpus file, then round k − (corpus size): a seed input (a shipped
+//! scene or mesh, or a small file made here) with 1–8 random byte-level mutations (bit flips, interesting
+//! bytes, insertions, deletions, duplicated and truncated ranges, for text also digit runs and extreme
+//! numbers). The reader must return `Ok` or an error whose message names the file and stays readable
+//! (at most [`MESSAGE_BYTES`]) — never panic, abort, hang or exhaust memory.
 //!
-//! `cargo test` runs [`ROUNDS_IN_TESTS`] rounds per reader (seconds). `scripts/fuzz SECONDS` runs the same
-//! harness for a bounded time per reader (`CAUSTICA_FUZZ_SECONDS`), writing each new crashing input to
-//! `tests/data/fuzz/<reader>/` and failing at the end if there was one.
+//! The inputs run in a child process (this test binary's ignored test [`fuzz_child`]) under an address-space
+//! limit ([`MEMORY_KIB`], `ulimit -v`): it prints each input's index before reading it, so that the parent
+//! knows the input that aborted the child (an allocation failure, a stack overflow) or that gave no answer
+//! within [`HANG`], and restarts the child past it. Panics are caught in the child and reported.
+//!
+//! `cargo test` runs [`ROUNDS_IN_TESTS`] rounds per reader (seconds in all). `scripts/fuzz SECONDS` runs the
+//! same harness for a bounded time per reader (`CAUSTICA_FUZZ_SECONDS`), writing each new failing input to
+//! `tests/data/fuzz/<reader>/` (the corpus kept in the repository, replayed by every run) and failing at the
+//! end if there was one; it prints the executions per reader.
 
 use crate::common;
 
 use common::Rng;
 
-use std::io::Write;
+use std::io::{BufRead, Write};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::mpsc::{channel, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
-use caustica::film::{read_exr, write_exr, Image};
+use caustica::film::partial::write_partial_film;
+use caustica::film::{read_exr, write_exr, Film, Image, PixelFilter, Rect};
 use caustica::light::EnvMap;
 use caustica::math::{Mat4, Vec3};
 use caustica::mesh::load_mesh;
+use caustica::mesh::serialized::load_serialized;
+use caustica::render::part::read_part;
 use caustica::scene::Scene;
 
 const ROUNDS_IN_TESTS: u64 = 300;
+/// An input without an answer after this long is a hang (the slowest valid input takes well under a second).
+const HANG: Duration = Duration::from_secs(10);
+/// The child's address space, in KiB (`ulimit -v`): a reader must refuse, not abort, what does not fit.
+const MEMORY_KIB: u64 = 2_000_000;
+/// The longest error message a reader may give (values it echoes are cut).
+const MESSAGE_BYTES: usize = 4096;
+/// The environment variable that makes [`fuzz_child`] run: `READER FIRST END SECONDS`.
+const CHILD: &str = "CAUSTICA_FUZZ_CHILD";
 
-const INTERESTING: &[u8] = &[0, 0xff, 0x7f, 0x80, b'\n', b' ', b'-', b'9', b'e', b'.', b'"', b'[', b'=', b'#'];
+const INTERESTING: &[u8] = &[0, 0xff, 0x7f, 0x80, b'\n', b' ', b'-', b'9', b'e', b'.', b'"', b'[', b'=', b'#', b'<', b'>', b'/'];
 const NUMBERS: &[&str] = &["0", "-1", "4294967295", "1e38", "3e39", "nan", "inf", "-0", "1e-45", "99999999999999999999"];
 
 /// 1–8 mutations of `seed`.
@@ -123,6 +144,20 @@ fn hdr() -> Vec<u8> {
     b
 }
 
+/// A 6×4 partial film of `render --part` with a few samples and its part description (a real part's).
+fn part(dir: &Path) -> Vec<u8> {
+    let path = dir.join("seed-part.exr");
+    let mut film = Film::with_filter(6, 4, Rect::new(1, 0, 6, 4), PixelFilter::Box).unwrap();
+    for y in 0..4 {
+        for x in 1..6 {
+            film.add(x, y, Vec3::new(x as f32, y as f32, 0.5));
+        }
+    }
+    let info = r#"{"part":{"index":1,"count":2},"fingerprint":"339631d50651c1781d3492248d434dc1","share":"passes","passes":4,"tiles":1,"spp":4,"scene":"s.toml","seconds_total":0.5,"phases":{"spp":4,"passes":4,"seconds_render":0.1,"seconds_photons":0.0,"seconds_kdtree":0.0,"rays_traced":40,"knn_queries":0,"knn_area_queries":0,"photons_emitted":0,"photons_stored":0,"photon_bytes":0,"photon_chains_capped":0,"mis_q1_range":null,"passes_rendered":2,"partial":false,"skipped":{}}}"#;
+    write_partial_film(&path, &film, &std::collections::BTreeMap::from([("part".to_string(), info.to_string())])).unwrap();
+    std::fs::read(path).unwrap()
+}
+
 fn exr(dir: &Path) -> Vec<u8> {
     let path = dir.join("seed.exr");
     write_exr(&path, &Image::from_fn(5, 3, |x, y| Vec3::new(x as f32, y as f32 * 0.5, 1.0))).unwrap();
@@ -137,19 +172,31 @@ fn named(path: &Path, e: impl std::fmt::Display) -> String {
 }
 
 fn targets(dir: &Path) -> Vec<Target> {
-    let scenes = ["cornell-caustics.toml", "envmap-glass.toml", "teapot-glossy.toml"]
-        .map(|f| std::fs::read(common::repo_path("scenes").join(f)).unwrap())
-        .to_vec();
+    let read_all = |dir: &str, files: &[&str]| files.iter().map(|f| std::fs::read(common::repo_path(dir).join(f)).unwrap()).collect::<Vec<_>>();
     vec![
         Target {
             name: "scene",
             ext: "toml",
-            seeds: scenes,
+            seeds: read_all("scenes", &["cornell-caustics.toml", "envmap-glass.toml", "teapot-glossy.toml"]),
             text: true,
             read: |p| {
                 // Relative asset paths resolve against the shipped scenes.
                 let text = std::fs::read_to_string(p).map_err(|e| e.to_string())?;
                 match Scene::from_toml_str(&text, &common::repo_path("scenes"), p) {
+                    Ok(_) => Ok(()),
+                    Err(e) => Err(named(p, e)),
+                }
+            },
+        },
+        Target {
+            name: "xml",
+            ext: "xml",
+            seeds: read_all("tests/data/xml", &["cornell-caustics.xml", "hand-cornell.xml", "legacy-0.6.xml", "spectra.xml", "teapot-glossy.xml"]),
+            text: true,
+            read: |p| {
+                // Includes and meshes resolve against the shipped XML test scenes.
+                let text = std::fs::read_to_string(p).map_err(|e| e.to_string())?;
+                match Scene::from_xml_str(&text, &common::repo_path("tests/data/xml"), p, &std::collections::BTreeMap::new()) {
                     Ok(_) => Ok(()),
                     Err(e) => Err(named(p, e)),
                 }
@@ -180,11 +227,25 @@ fn targets(dir: &Path) -> Vec<Target> {
             read: |p| load_mesh(p).map(|_| ()).map_err(|e| named(p, e)),
         },
         Target {
+            name: "serialized",
+            ext: "serialized",
+            seeds: read_all("tests/data/real/meshes", &["matpreview-2.serialized"]),
+            text: false,
+            read: |p| load_serialized(p, 0).map(|_| ()).map_err(|e| named(p, e)),
+        },
+        Target {
             name: "exr",
             ext: "exr",
             seeds: vec![exr(dir)],
             text: false,
             read: |p| read_exr(p).map(|_| ()).map_err(|e| named(p, e)),
+        },
+        Target {
+            name: "part",
+            ext: "exr",
+            seeds: vec![part(dir)],
+            text: false,
+            read: |p| read_part(p).map(|_| ()).map_err(|e| named(p, e)),
         },
         Target {
             name: "hdr",
@@ -196,73 +257,264 @@ fn targets(dir: &Path) -> Vec<Target> {
     ]
 }
 
-fn regression_dir(target: &str) -> PathBuf {
+fn corpus_dir(target: &str) -> PathBuf {
     common::repo_path("tests/data/fuzz").join(target)
 }
 
-/// Runs `read` on `bytes` written to `path`; `Err(panic message)` if it panicked.
+/// The kept inputs of `target`, in name order.
+fn corpus(target: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(corpus_dir(target)).map(|d| d.flatten().map(|e| e.path()).collect()).unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// Input `k` of `t`: corpus file k, or the mutation round k − corpus size (seeded by the round and the
+/// reader's name).
+fn input(t: &Target, corpus: &[PathBuf], k: u64) -> Vec<u8> {
+    if let Some(file) = corpus.get(k as usize) {
+        return std::fs::read(file).unwrap();
+    }
+    let round = k - corpus.len() as u64;
+    let name = t.name.bytes().fold(0u64, |h, b| h.wrapping_mul(31).wrapping_add(u64::from(b)));
+    let mut rng = Rng(round.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ name);
+    let seed = &t.seeds[rng.below(t.seeds.len())];
+    mutate(seed, &mut rng, t.text)
+}
+
+/// Reads `bytes` written to `path` with `t`; `Err(why)` if the reader panicked or gave an overlong message.
 fn try_input(t: &Target, path: &Path, bytes: &[u8]) -> Result<(), String> {
     std::fs::write(path, bytes).unwrap();
     let read = t.read;
-    catch_unwind(AssertUnwindSafe(|| {
-        let _ = read(path);
-    }))
-    .map_err(|p| p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default())
+    match catch_unwind(AssertUnwindSafe(|| read(path))) {
+        Ok(Err(message)) if message.len() > MESSAGE_BYTES => Err(format!("an error message of {} bytes", message.len())),
+        Ok(_) => Ok(()),
+        Err(p) => Err(format!(
+            "panics: {}",
+            p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default()
+        )),
+    }
 }
 
-/// Fuzzes one target for `rounds` rounds or `time` (whichever ends first); returns the crashing inputs.
-fn fuzz(t: &Target, dir: &Path, rounds: u64, time: Duration, save: bool) -> Vec<String> {
-    let path = dir.join(format!("input.{}", t.ext));
-    let mut crashes = Vec::new();
-    // The kept regression inputs first.
-    if let Ok(entries) = std::fs::read_dir(regression_dir(t.name)) {
-        for e in entries.flatten() {
-            let bytes = std::fs::read(e.path()).unwrap();
-            if let Err(m) = try_input(t, &path, &bytes) {
-                crashes.push(format!("{}: regression input {} panics again: {m}", t.name, e.path().display()));
-            }
+/// The child process: reads inputs FIRST.. of one reader until END or SECONDS have passed, printing
+/// `fuzz-start K` before input K, `fuzz-fail K WHY` after one that failed, `fuzz-end K` (K: the next input)
+/// at the end. Run by [`readers_never_panic_hang_or_exhaust_memory`] only.
+#[test]
+#[ignore = "the child process of readers_never_panic_hang_or_exhaust_memory (it sets CAUSTICA_FUZZ_CHILD)"]
+fn fuzz_child() {
+    let spec = std::env::var(CHILD).expect("run by readers_never_panic_hang_or_exhaust_memory");
+    let v: Vec<&str> = spec.split(' ').collect();
+    let (first, end, seconds): (u64, u64, f64) = (v[1].parse().unwrap(), v[2].parse().unwrap(), v[3].parse().unwrap());
+    let dir = work_dir();
+    let t = targets(&dir).into_iter().chain([misbehaving()]).find(|t| t.name == v[0]).expect("a reader");
+    let corpus = corpus(t.name);
+    let path = dir.join(format!("input-{}.{}", t.name, t.ext));
+    // Panics are caught and reported per input; keep the default hook's backtrace noise out of the log.
+    std::panic::set_hook(Box::new(|_| {}));
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds);
+    let mut out = std::io::stdout().lock();
+    let mut k = first;
+    while k < end && Instant::now() < deadline {
+        writeln!(out, "fuzz-start {k}").unwrap();
+        out.flush().unwrap();
+        if let Err(why) = try_input(&t, &path, &input(&t, &corpus, k)) {
+            writeln!(out, "fuzz-fail {k} {}", why.replace('\n', " ")).unwrap();
         }
+        k += 1;
     }
+    writeln!(out, "fuzz-end {k}").unwrap();
+}
+
+fn work_dir() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// What fuzzing one reader did.
+struct Run {
+    executions: u64,
+    slowest: Duration,
+    failures: Vec<String>,
+}
+
+/// Fuzzes `t` over inputs 0..`end` or for `time` (whichever ends first) in child processes, an input
+/// without an answer within `hang` counted as a hang; a failing input is named, and with `save` a new one
+/// is kept in the corpus.
+fn fuzz(t: &Target, end: u64, time: Duration, hang: Duration, save: bool) -> Run {
+    let corpus = corpus(t.name);
+    let end = end.saturating_add(corpus.len() as u64);
+    let mut run = Run { executions: 0, slowest: Duration::ZERO, failures: Vec::new() };
+    // New failing inputs are kept at the end: the children number the inputs by the corpus they started with.
+    let mut keep: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    let mut fail = |k: u64, why: &str, failures: &mut Vec<String>| {
+        if let Some(file) = corpus.get(k as usize) {
+            failures.push(format!("{}: kept input {} fails again: {why}", t.name, file.display()));
+            return;
+        }
+        let mut file = format!("round {}", k - corpus.len() as u64);
+        if save {
+            let kind = why.split([' ', ':']).next().unwrap_or("fail");
+            let p = corpus_dir(t.name).join(format!("{kind}-{:08}.{}", k - corpus.len() as u64, t.ext));
+            file = p.display().to_string();
+            keep.push((p, input(t, &corpus, k)));
+        }
+        failures.push(format!("{} ({file}): {why}", t.name));
+    };
     let start = Instant::now();
-    let mut round = 0u64;
-    while round < rounds && start.elapsed() < time {
-        let mut rng = Rng(round.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ t.name.len() as u64);
-        let seed = &t.seeds[rng.below(t.seeds.len())];
-        let input = mutate(seed, &mut rng, t.text);
-        if let Err(m) = try_input(t, &path, &input) {
-            let mut file = format!("{}-{round}", t.name);
-            if save {
-                let d = regression_dir(t.name);
-                std::fs::create_dir_all(&d).unwrap();
-                let p = d.join(format!("crash-{round:08}.{}", t.ext));
-                std::fs::write(&p, &input).unwrap();
-                file = p.display().to_string();
+    let stderr_path = work_dir().join(format!("child-{}.stderr", t.name));
+    let mut k = 0u64;
+    while k < end && start.elapsed() < time {
+        let seconds = time.saturating_sub(start.elapsed()).as_secs_f64().min(1e9);
+        let mut child = Command::new("sh")
+            .arg("-c")
+            .arg(format!("ulimit -v {MEMORY_KIB}; exec \"$0\" \"$@\""))
+            .arg(std::env::current_exe().unwrap())
+            .args(["fuzz::fuzz_child", "--exact", "--ignored", "--nocapture", "--test-threads", "1"])
+            .env(CHILD, format!("{} {k} {end} {seconds}", t.name))
+            .env_remove("RUST_BACKTRACE")
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&stderr_path).unwrap())
+            .spawn()
+            .unwrap();
+        let (tx, rx) = channel();
+        let stdout = child.stdout.take().unwrap();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+                // (libtest writes the test's name without a newline before the test's own output.)
+                let Some(at) = line.find("fuzz-") else { continue };
+                if tx.send(line[at..].to_string()).is_err() {
+                    break;
+                }
             }
-            crashes.push(format!("{}: round {round} panics ({file}): {m}", t.name));
+        });
+        let mut current: Option<(u64, Instant)> = None;
+        let mut next = None;
+        loop {
+            match rx.recv_timeout(hang) {
+                Ok(line) => {
+                    let mut words = line.splitn(3, ' ');
+                    let (word, n) = (words.next().unwrap_or(""), words.next().and_then(|n| n.parse::<u64>().ok()));
+                    match (word, n) {
+                        ("fuzz-start", Some(n)) => {
+                            if let Some((_, since)) = current {
+                                run.slowest = run.slowest.max(since.elapsed());
+                            }
+                            current = Some((n, Instant::now()));
+                            run.executions += 1;
+                        }
+                        ("fuzz-fail", Some(n)) => fail(n, words.next().unwrap_or(""), &mut run.failures),
+                        ("fuzz-end", Some(n)) => {
+                            if let Some((_, since)) = current.take() {
+                                run.slowest = run.slowest.max(since.elapsed());
+                            }
+                            next = Some(n);
+                        }
+                        _ => {}
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    let (n, _) = current.expect("the fuzz child started no input");
+                    fail(n, &format!("hangs: no answer after {} s", hang.as_secs_f64()), &mut run.failures);
+                    next = Some(n + 1);
+                    break;
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    let status = child.wait().unwrap();
+                    if next.is_none() || !status.success() {
+                        let stderr = std::fs::read_to_string(&stderr_path).unwrap_or_default();
+                        let tail: String = stderr.lines().filter(|l| !l.trim().is_empty()).take(2).collect::<Vec<_>>().join(" / ");
+                        let (n, _) = current.unwrap_or_else(|| panic!("the fuzz child failed before its first input ({status}): {stderr}"));
+                        fail(n, &format!("aborts: {status}, {tail}"), &mut run.failures);
+                        next = Some(n + 1);
+                    }
+                    break;
+                }
+            }
         }
-        round += 1;
+        k = next.unwrap();
     }
-    eprintln!("fuzz {}: {round} rounds in {:.1} s, {} crashes", t.name, start.elapsed().as_secs_f64(), crashes.len());
-    crashes
+    for (path, bytes) in keep {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
+    }
+    eprintln!(
+        "fuzz {}: {} executions in {:.1} s ({} kept inputs), slowest {:.3} s, {} failures",
+        t.name,
+        run.executions,
+        start.elapsed().as_secs_f64(),
+        corpus.len(),
+        run.slowest.as_secs_f64(),
+        run.failures.len()
+    );
+    run
 }
 
 #[test]
-fn readers_never_panic_on_mutated_input() {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz");
-    std::fs::create_dir_all(&dir).unwrap();
-    // Bounded-time mode (scripts/fuzz): seconds per target, crashes saved as regression inputs.
+fn readers_never_panic_hang_or_exhaust_memory() {
+    let dir = work_dir();
+    // Bounded-time mode (scripts/fuzz): seconds per reader (optionally only the readers named in
+    // CAUSTICA_FUZZ_READERS), failing inputs kept in the corpus.
     let seconds: Option<f64> = std::env::var("CAUSTICA_FUZZ_SECONDS").ok().and_then(|s| s.parse().ok());
+    let only: Option<String> = std::env::var("CAUSTICA_FUZZ_READERS").ok().filter(|s| !s.is_empty());
     let (rounds, time, save) = match seconds {
         Some(s) => (u64::MAX, Duration::from_secs_f64(s), true),
         None => (ROUNDS_IN_TESTS, Duration::MAX, false),
     };
-    // Panics are caught and reported per input; keep the default hook's backtrace noise out of the log.
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let mut crashes = Vec::new();
+    let mut failures = Vec::new();
     for t in targets(&dir) {
-        crashes.extend(fuzz(&t, &dir, rounds, time, save));
+        if only.as_ref().is_some_and(|o| !o.split([',', ' ']).any(|n| n == t.name)) {
+            continue;
+        }
+        let run = fuzz(&t, rounds, time, HANG, save);
+        assert!(run.executions > 0, "{}: no input was read", t.name);
+        failures.extend(run.failures);
     }
-    std::panic::set_hook(hook);
-    assert!(crashes.is_empty(), "{} crashing inputs:\n{}", crashes.len(), crashes.join("\n"));
+    assert!(failures.is_empty(), "{} failing inputs:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// A reader that misbehaves in every way the harness must catch, by its input's length: it reads, panics,
+/// aborts, hangs, exhausts the memory limit, or gives an overlong message.
+fn misbehaving() -> Target {
+    Target {
+        name: "misbehaving",
+        ext: "txt",
+        seeds: vec![b"a seed of some length".to_vec()],
+        text: true,
+        read: |p| {
+            let n = std::fs::read(p).unwrap().len();
+            match n % 6 {
+                0 => Ok(()),
+                1 => panic!("on purpose"),
+                2 => std::process::abort(),
+                3 => loop {
+                    std::thread::sleep(Duration::from_secs(1));
+                },
+                4 => Err(format!("{}: {}", p.display(), std::hint::black_box(vec![1u8; (4u64 << 30) as usize]).len())),
+                _ => Err(format!("{}: {}", p.display(), "x".repeat(MESSAGE_BYTES))),
+            }
+        },
+    }
+}
+
+/// The harness itself: every input is read once, and each way of failing is caught and named, the next
+/// inputs still read (a hang within the shorter limit given here).
+#[test]
+fn the_harness_catches_panics_aborts_hangs_and_memory_exhaustion() {
+    let t = misbehaving();
+    let corpus_len = corpus(t.name).len();
+    assert_eq!(corpus_len, 0, "no input of the misbehaving reader is kept");
+    let run = fuzz(&t, 24, Duration::MAX, Duration::from_secs(1), false);
+    let lengths: Vec<usize> = (0..24).map(|k| input(&t, &[], k).len() % 6).collect();
+    let failures = run.failures.join("\n");
+    for (kind, why) in [(1, "panics: on purpose"), (2, "aborts"), (3, "hangs"), (4, "aborts"), (5, "an error message of")] {
+        let expected = lengths.iter().filter(|&&l| l == kind).count();
+        assert!(expected > 0, "no input of kind {kind} among {lengths:?}");
+        let found = run.failures.iter().filter(|f| f.contains(why)).count();
+        assert!(found >= expected, "{why}: {found} of {expected}:\n{failures}");
+    }
+    assert_eq!(run.failures.len(), lengths.iter().filter(|&&l| l != 0).count(), "{failures}");
+    assert_eq!(run.executions, 24, "{failures}");
+    assert!(failures.contains("memory allocation of 4294967296 bytes failed"), "{failures}");
 }

@@ -207,6 +207,38 @@ fn meshes_must_be_regular_files() {
     }
 }
 
+/// The scene file named on the command line, TOML or XML, is read as an included file is: a device, a FIFO,
+/// a directory or a file over 256 MiB is refused (a FIFO would wait for a writer, /dev/zero fill memory).
+#[test]
+fn scene_files_must_be_regular_files_within_the_bound() {
+    let dir = case_dir("scene_not_regular");
+    for ext in ["toml", "xml"] {
+        #[cfg(unix)]
+        {
+            let zero = format!("zero.{ext}");
+            std::os::unix::fs::symlink("/dev/zero", dir.join(&zero)).unwrap();
+            expect_refused(&dir, &["render", &zero, "-o", "out.exr", "--quiet"], &[&zero, "not a regular file"]);
+            expect_refused(&dir, &["info", &zero], &[&zero, "not a regular file"]);
+            std::fs::remove_file(dir.join(&zero)).unwrap();
+        }
+        let fifo = format!("pipe.{ext}");
+        if Command::new("mkfifo").arg(dir.join(&fifo)).status().is_ok_and(|s| s.success()) {
+            expect_refused(&dir, &["render", &fifo, "-o", "out.exr", "--quiet"], &[&fifo, "not a regular file"]);
+            expect_refused(&dir, &["convert", &fifo, "-o", "out.toml"], &[&fifo, "not a regular file"]);
+            std::fs::remove_file(dir.join(&fifo)).unwrap();
+        }
+        let sub = format!("sub.{ext}");
+        std::fs::create_dir(dir.join(&sub)).unwrap();
+        expect_refused(&dir, &["render", &sub, "-o", "out.exr", "--quiet"], &[&sub, "a directory"]);
+        std::fs::remove_dir(dir.join(&sub)).unwrap();
+        // A sparse file: 257 MiB stated, nothing written.
+        let huge = format!("huge.{ext}");
+        std::fs::File::create(dir.join(&huge)).unwrap().set_len(257 << 20).unwrap();
+        expect_refused(&dir, &["render", &huge, "-o", "out.exr", "--quiet"], &[&huge, "larger than 256 MiB"]);
+        std::fs::remove_file(dir.join(&huge)).unwrap();
+    }
+}
+
 /// A tiny scene that renders in well under a second.
 const QUICK_SCENE: &str = r#"
 [integrator]
@@ -333,4 +365,58 @@ fn sigterm_and_sighup_keep_the_work() {
         assert!(image.pixels().iter().any(|p| p.x > 0.0), "SIG{signal}: the partial image is black");
         assert_eq!(listing(&dir), ["out.exr", "slow.toml", "stats.json"], "SIG{signal}");
     }
+}
+
+/// A `render --part` cut by SIGTERM (a Slurm array task at its time limit) writes the passes it finished
+/// as a part marked partial and exits 143; `merge` refuses it, naming it, unless `--allow-missing`, whose
+/// stats list it with the samples per pixel really merged.
+#[test]
+fn sigterm_mid_part_keeps_a_partial_part_for_merge() {
+    let dir = case_dir("signal_part");
+    std::fs::write(dir.join("slow.toml"), SLOW_SCENE).unwrap();
+    let mut children: Vec<_> = (0..2)
+        .map(|i| {
+            let (part, out, stats) = (format!("{i}/2"), format!("p{i}.exr"), format!("p{i}.json"));
+            Command::new(BIN)
+                .args(["render", "slow.toml", "--part", &part, "-o", &out, "--stats", &stats, "--quiet", "--pass-spp", "4", "--threads", "1"])
+                .current_dir(&dir)
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(2000));
+    for child in &mut children {
+        assert!(child.try_wait().unwrap().is_none(), "the part ended before the signal");
+        assert!(Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap().success());
+    }
+    for (i, child) in children.into_iter().enumerate() {
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(143), "part {i}: {:?}\n{stderr}", out.status);
+        assert!(stderr.contains(&format!("part {i}/2 was interrupted")) && stderr.contains("--allow-missing"), "{stderr}");
+        let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join(format!("p{i}.json"))).unwrap()).unwrap();
+        assert_eq!(stats["partial"], true, "{stats}");
+    }
+    assert_eq!(listing(&dir), ["p0.exr", "p0.json", "p1.exr", "p1.json", "slow.toml"]);
+    // Without --allow-missing: exit 2, the cut part and its passes named, no image.
+    let stderr = expect_refused(&dir, &["merge", "p0.exr", "p1.exr", "-o", "merged.exr"], &["p0.exr: part 0/2 was interrupted after", "--allow-missing"]);
+    assert!(stderr.contains("of its 12500 passes"), "{stderr}");
+    // With it: merged, the stats say which parts were cut and how many samples there are.
+    let (out, _) = run_limited(&dir, &["merge", "p1.exr", "p0.exr", "-o", "merged.exr", "--stats", "merged.json", "--allow-missing"], Duration::from_secs(20));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("part(s) 0/2, 1/2 were interrupted"), "{stderr}");
+    let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("merged.json")).unwrap()).unwrap();
+    assert_eq!(stats["partial"], serde_json::json!([0, 1]));
+    assert_eq!(stats["missing"], serde_json::json!([]));
+    assert_eq!(stats["spp"], 100_000);
+    let (mean, min) = (stats["spp_merged"].as_f64().unwrap(), stats["spp_merged_min"].as_u64().unwrap());
+    let passes: u64 = stats["part_stats"].as_array().unwrap().iter().map(|p| p["phases"]["passes_rendered"].as_u64().unwrap()).sum();
+    // Every pixel has the samples of the whole passes (4 each), some also the finished tiles of a cut pass.
+    assert!(min >= 4 * passes && mean >= min as f64 && mean < 100_000.0, "{stats}");
+    assert!(passes >= 1, "no pass finished in 2 s: {stats}");
+    let image = caustica::film::io::read_exr(dir.join("merged.exr")).unwrap();
+    assert!(image.pixels().iter().all(|p| p.is_finite()) && image.pixels().iter().any(|p| p.x > 0.0));
 }

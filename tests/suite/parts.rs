@@ -167,6 +167,15 @@ fn the_set_must_be_complete_unique_and_from_one_render() {
     let (partial, stats) = merge_parts(vec![a.clone(), c.clone()], true).unwrap();
     assert_eq!(stats.missing, vec![1]);
     assert_eq!(partial.total_samples(), 2 * 48 * 32);
+    // Cut short (a part interrupted by a signal): named with its passes, allowed with allow_missing.
+    let mut cut = b.clone();
+    cut.info.phases.partial = true;
+    match check_set(&[a.clone(), cut.clone(), c.clone()], false) {
+        Err(e @ MergeError::Partial { .. }) => assert!(e.to_string().contains("part 1/3 was interrupted after 1 of its 1 passes"), "{e}"),
+        other => panic!("expected a partial part, got {other:?}"),
+    }
+    let (_, stats) = merge_parts(vec![a.clone(), cut, c.clone()], true).unwrap();
+    assert_eq!((stats.partial, stats.missing, stats.spp_merged, stats.spp_merged_min), (vec![1], vec![], 3.0, 3));
     // Duplicated: both files named, even with allow_missing.
     let mut b2 = b.clone();
     b2.path = dir.join("copy-of-part-1.exr");

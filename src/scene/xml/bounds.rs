@@ -11,6 +11,9 @@
 //! </scene>
 //! ```
 //!
+//! The scene file named on the command line (TOML or XML) is read by the same rule as one included file
+//! ([`read_regular`] with [`MAX_INCLUDE_BYTES`]).
+//!
 //! Mitsuba 3.9.1 bounds only the depth of includes (15, `ParserConfig::max_include_depth`,
 //! include/mitsuba/core/parser.h); its parser (`parse_xml_node`, src/core/parser.cpp) recurses once per
 //! nesting level, so a deep enough file overflows its stack.
@@ -96,36 +99,63 @@ impl Includes {
                 self.describe(Some(link))
             ));
         }
-        let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        if !meta.is_file() {
-            let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, FIFO or socket)" };
-            return Err(format!("{} is {kind}; an included file must be a regular file", path.display()));
-        }
         let limit = MAX_INCLUDE_BYTES.min(MAX_INCLUDED_BYTES - self.bytes);
-        let too_large = |size: u64| {
-            if size > MAX_INCLUDE_BYTES {
-                format!("{} is larger than {} MiB, the bound on one included file", path.display(), MAX_INCLUDE_BYTES >> 20)
-            } else {
-                format!(
-                    "{} ({size} bytes) would take the included text over {} MiB in all: {}",
-                    path.display(),
-                    MAX_INCLUDED_BYTES >> 20,
-                    self.describe(Some(link))
-                )
+        match read_regular(path, limit) {
+            Ok(text) => {
+                self.bytes += text.len() as u64;
+                Ok(text)
             }
-        };
-        if meta.len() > limit {
-            return Err(too_large(meta.len()));
+            Err(Unreadable::Io(e)) => Err(format!("cannot read {}: {e}", path.display())),
+            Err(e @ (Unreadable::Directory | Unreadable::NotRegular)) => Err(format!("{} is {e}; an included file must be a regular file", path.display())),
+            Err(Unreadable::TooLarge { bytes }) if bytes > MAX_INCLUDE_BYTES => {
+                Err(format!("{} is larger than {} MiB, the bound on one included file", path.display(), MAX_INCLUDE_BYTES >> 20))
+            }
+            Err(Unreadable::TooLarge { bytes }) => Err(format!(
+                "{} ({bytes} bytes) would take the included text over {} MiB in all: {}",
+                path.display(),
+                MAX_INCLUDED_BYTES >> 20,
+                self.describe(Some(link))
+            )),
         }
-        let file = std::fs::File::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let mut bytes = Vec::with_capacity(meta.len() as usize);
-        file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        if bytes.len() as u64 > limit {
-            return Err(too_large(bytes.len() as u64));
-        }
-        self.bytes += bytes.len() as u64;
-        String::from_utf8(bytes).map_err(|_| format!("cannot read {}: stream did not contain valid UTF-8", path.display()))
     }
+}
+
+/// Why [`read_regular`] did not read a file.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum Unreadable {
+    #[error("{0}")]
+    Io(std::io::Error),
+    #[error("a directory")]
+    Directory,
+    #[error("not a regular file (a device, FIFO or socket)")]
+    NotRegular,
+    /// At least `bytes` bytes (the size the file system states, or the bytes read past the limit).
+    #[error("larger than the bound on it ({bytes} bytes or more)")]
+    TooLarge { bytes: u64 },
+}
+
+/// The text (UTF-8) of the file at `path`, read only if it is a regular file (a device such as /dev/zero
+/// would be read without end, a FIFO would wait for a writer) of at most `limit` bytes, checked on the
+/// size stated and on the bytes read (a file still growing, `/proc`). The rule for included files and for
+/// the scene file given.
+pub(crate) fn read_regular(path: &Path, limit: u64) -> Result<String, Unreadable> {
+    let meta = std::fs::metadata(path).map_err(Unreadable::Io)?;
+    if meta.is_dir() {
+        return Err(Unreadable::Directory);
+    }
+    if !meta.is_file() {
+        return Err(Unreadable::NotRegular);
+    }
+    if meta.len() > limit {
+        return Err(Unreadable::TooLarge { bytes: meta.len() });
+    }
+    let file = std::fs::File::open(path).map_err(Unreadable::Io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(Unreadable::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(Unreadable::TooLarge { bytes: bytes.len() as u64 });
+    }
+    String::from_utf8(bytes).map_err(|_| Unreadable::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, "stream did not contain valid UTF-8")))
 }
 
 /// What [`scan`] found first: an element (its byte offset and tag) that is too crowded, too deep, or

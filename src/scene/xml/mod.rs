@@ -67,6 +67,7 @@
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.
 
 mod bounds;
+pub(crate) use bounds::{read_regular, Unreadable, MAX_INCLUDE_BYTES};
 mod cie1931;
 mod convert;
 mod ignored;

@@ -38,7 +38,7 @@ use super::cie1931::{
 };
 use super::tree::{Element, SearchPath};
 use super::values::float_array;
-use super::super::error::{shown, SceneError};
+use super::super::error::{cut, shown, SceneError};
 
 /// How the plugin that reads a colour property uses it: the `emitter` and `unbounded` flags of Mitsuba's
 /// `Properties::get_texture_impl`.
@@ -95,8 +95,11 @@ pub(crate) fn property_value(el: &Element, plugin: &Element) -> Result<Value, Sc
     let spectrum = match (el.attr("value"), el.attr("filename")) {
         (Some(text), None) => parse_value(text).map_err(|m| el.error(format!("attribute `value`: {m}")))?,
         (None, Some(file)) => {
-            let text = std::fs::read_to_string(file).map_err(|e| el.error(format!("cannot read {file}: {e}")))?;
-            parse_file(&text).map_err(|(line, m)| el.error(format!("{file}:{line}: {m}")))?
+            // Read as an included file is (a regular file within the bound on one), so that /dev/zero or a
+            // FIFO is refused instead of read without end.
+            let text = super::bounds::read_regular(Path::new(file), super::bounds::MAX_INCLUDE_BYTES)
+                .map_err(|e| el.error(format!("cannot read {}: {e}", cut(file))))?;
+            parse_file(&text).map_err(|(line, m)| el.error(format!("{}:{line}: {m}", cut(file))))?
         }
         _ => return Err(el.error("<spectrum> needs either the attribute `value` or `filename`, not both")),
     };

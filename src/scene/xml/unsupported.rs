@@ -39,7 +39,6 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "plastic", "a diffuse base under a smooth dielectric coating", LATER_MATERIALS),
     ("bsdf", "roughplastic", "a diffuse base under a rough dielectric coating", LATER_MATERIALS),
     ("bsdf", "roughdielectric", "rough glass: microfacet reflection and transmission", LATER_MATERIALS),
     ("bsdf", "mask", "an opacity mask cutting holes in the nested BSDF", LATER_MATERIALS),

@@ -19,17 +19,15 @@ use toml::{Table, Value};
 
 use super::super::settings::defaults;
 
-/// The XML tag of each property key of the description (colours are `<rgb>` or `<float>` by value).
+/// The XML tag of a property whose TOML value does not tell it: integers (TOML numbers are read as floats
+/// elsewhere), points and vectors (arrays of three are colours otherwise). Every other key is written by
+/// its value's type (a number: `<float>`, three numbers: `<rgb>`, a string: `<string>`, a boolean:
+/// `<boolean>`), so a new plugin's keys need no row here unless they are one of these.
 fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
-        "fov" | "near_clip" | "far_clip" | "radius" | "alpha" | "weight" | "scale" | "cutoff_angle" | "beam_width" | "stddev" | "B" | "C" => "float",
         "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
-        "face_normals" | "flip_normals" | "sample_visible" => "boolean",
-        "filename" | "material" | "distribution" | "fov_axis" => "string",
         "center" | "position" => "point",
         "direction" => "vector",
-        "reflectance" | "specular_reflectance" | "eta" | "k" | "radiance" | "intensity" | "irradiance" => "colour",
-        "int_ior" | "ext_ior" => "ior",
         _ => return None,
     })
 }
@@ -82,16 +80,14 @@ impl Writer {
     /// A property element `name` = `v` (key path `at` for errors).
     fn property(&mut self, at: &str, name: &str, v: &Value) -> Result<()> {
         let bad = || format!("{at}.{name}: the value {v} cannot be written as Mitsuba XML");
-        let tag = tag_of(name).ok_or_else(|| format!("{at}.{name}: no Mitsuba XML property for this key"))?;
         let n = esc(name);
-        let text = match (tag, v) {
-            ("colour", Value::Array(_)) => format!("<rgb name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
-            ("colour", _) => format!("<float name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
-            ("ior", Value::String(s)) | ("string", Value::String(s)) => format!("<string name=\"{n}\" value=\"{}\"/>", esc(s)),
-            ("ior", _) => format!("<float name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
-            ("boolean", Value::Boolean(b)) => format!("<boolean name=\"{n}\" value=\"{b}\"/>"),
-            ("point" | "vector", Value::Array(_)) => format!("<{tag} name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
-            ("float" | "integer", _) => format!("<{tag} name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+        let text = match (tag_of(name), v) {
+            (Some("integer"), Value::Integer(_)) => format!("<integer name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+            (Some(tag @ ("point" | "vector")), Value::Array(_)) => format!("<{tag} name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
+            (None, Value::Array(_)) => format!("<rgb name=\"{n}\" value=\"{}\"/>", nums(v).ok_or_else(bad)?),
+            (None, Value::Float(_) | Value::Integer(_)) => format!("<float name=\"{n}\" value=\"{}\"/>", num(v).ok_or_else(bad)?),
+            (None, Value::String(s)) => format!("<string name=\"{n}\" value=\"{}\"/>", esc(s)),
+            (None, Value::Boolean(b)) => format!("<boolean name=\"{n}\" value=\"{b}\"/>"),
             _ => return Err(bad()),
         };
         self.line(&text);
