@@ -145,6 +145,8 @@ pub struct PassInfo {
     pub pass: u32,
     /// Rounds finished so far, over all passes (a round adds samples to every pixel: [`round`]).
     pub round: u32,
+    /// Whether the pass ended with this round (its photon map and all its samples are in the image).
+    pub pass_done: bool,
     /// Seconds of rendering so far (photon passes and eye passes), *excluding* the time spent in the
     /// `on_pass` callbacks, so that error-vs-time curves measure the renderer, not their own evaluation.
     pub seconds: f64,
@@ -425,6 +427,7 @@ pub fn render_share(
             let info = PassInfo {
                 pass: pass + u32::from(round_done > 0),
                 round: rounds,
+                pass_done: round_done == 0,
                 seconds: start.elapsed().as_secs_f64() - callback_seconds,
                 spp: spp_done + round_done,
                 photons_emitted: stats.photons_emitted,

@@ -581,7 +581,11 @@ struct PassLog<'a> {
 }
 
 impl PassLog<'_> {
+    /// One row per finished pass, as before rounds (a round inside a pass writes none).
     fn record(&mut self, film: &Film, info: &crate::render::PassInfo) -> Option<PassError> {
+        if !info.pass_done {
+            return None;
+        }
         let tracker = self.tracker.as_mut()?;
         let row = match tracker.record(&film.image(), info) {
             Ok(row) => row.clone(),
