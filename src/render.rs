@@ -445,11 +445,12 @@ pub fn render_share(
             }
         }
         if cut {
-            // Ctrl-C after some rounds of the pass: they are whole frames, counted in spp and passes.
+            // Ctrl-C after some rounds of the pass: they are whole frames, counted in spp and in the image's
+            // passes, but not in `passes_rendered` (passes whole, all their samples in: what a cut part of a
+            // split render reports as its finished share).
             if round_done > 0 {
                 spp_done += round_done;
                 pass += 1;
-                stats.passes_rendered += 1;
             }
             break;
         }
