@@ -50,13 +50,34 @@ pub fn find<'p, T, C>(plugins: &[&'p Plugin<T, C>], name: &str) -> Option<&'p Pl
     plugins.iter().copied().find(|p| p.name == name)
 }
 
-/// One plugin's properties: its table (without `type`) and the nested plugins of kind `C` the scene
-/// reader resolved for it (a blend's `bsdf_0`, ...).
+/// One plugin's properties: its table (without `type`), the nested plugins of kind `C` the scene reader
+/// resolved for it (a blend's `bsdf_0`, ...) and the keys whose values are textures.
 pub struct Props<'a, C> {
     table: &'a Table,
     /// The keys the plugin type takes (its list, for the debug check that a getter reads only those).
     keys: &'static [&'static str],
     nested: Vec<(&'a str, C)>,
+    textured: Vec<(&'a str, Textured)>,
+}
+
+/// What a plugin's constructor sees of a key whose value is a texture (`crate::material` binds the texture
+/// itself to the parameter): the colour and number getters return its mean, which is also what Mitsuba
+/// derives sampling weights from, after checking the texture's range as they check a constant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Textured {
+    /// Per-channel mean of the texture's colour.
+    pub mean: Vec3,
+    /// Mean of its number (`eval_1`).
+    pub mean_1: f32,
+    /// Per-channel maximum of its colour.
+    pub max: Vec3,
+}
+
+/// Whether a property's value describes a texture rather than a constant: a table with a `type` (an inline
+/// texture) or a `texture` (a reference to a named one) key.
+#[must_use]
+pub fn is_texture(v: &Value) -> bool {
+    v.as_table().is_some_and(|t| t.contains_key("type") || t.contains_key("texture"))
 }
 
 /// A number, or a name from a table of named values (Mitsuba's IOR names, conductor names).
@@ -69,13 +90,45 @@ pub enum NumberOrName<'a> {
 impl<'a, C> Props<'a, C> {
     /// `table`'s keys must all be among `keys` (the scene reader checks that first, naming the type's keys).
     pub(crate) fn new(table: &'a Table, keys: &'static [&'static str], nested: Vec<(&'a str, C)>) -> Self {
-        Self { table, keys, nested }
+        Self { table, keys, nested, textured: Vec::new() }
     }
 
-    /// The value at `key`, if given.
+    /// The same with the keys whose values are the textures `textured` (the scene reader resolved them).
+    pub(crate) fn with_textures(mut self, textured: Vec<(&'a str, Textured)>) -> Self {
+        self.textured = textured;
+        self
+    }
+
+    /// The value at `key`, if given; a texture is an error for getters that take constants only.
     fn get(&self, key: &str) -> Option<&'a Value> {
         debug_assert!(self.keys.contains(&key), "the plugin reads `{key}`, which its key list does not name");
         self.table.get(key)
+    }
+
+    /// The texture at `key`, if its value is one.
+    fn texture(&self, key: &str) -> Option<&Textured> {
+        self.textured.iter().find(|(k, _)| *k == key).map(|(_, t)| t)
+    }
+
+    /// The value at `key` for a getter that takes no texture: a texture there is an error.
+    fn constant(&self, key: &str) -> Result<Option<&'a Value>, PropError> {
+        match self.texture(key) {
+            Some(_) => Err(PropError::new(key, "this property cannot be a texture")),
+            None => Ok(self.get(key)),
+        }
+    }
+
+    /// A number given as a texture: its mean, checked by `check`.
+    fn textured_number(&self, key: &str, check: impl Fn(f32) -> Result<f32, String>) -> Option<Result<f32, PropError>> {
+        self.texture(key).map(|t| check(t.mean_1).map_err(|m| PropError::new(key, format!("the texture's mean: {m}"))))
+    }
+
+    /// A colour given as a texture: its mean, once its maximum and mean pass `check`.
+    fn textured_colour(&self, key: &str, check: impl Fn(Vec3) -> Result<Vec3, String>) -> Option<Result<Vec3, PropError>> {
+        self.texture(key).map(|t| {
+            check(t.max).map_err(|m| PropError::new(key, format!("the texture's maximum: {m}")))?;
+            check(t.mean).map_err(|m| PropError::new(key, format!("the texture's mean: {m}")))
+        })
     }
 
     /// Whether `key` is given.
@@ -93,11 +146,17 @@ impl<'a, C> Props<'a, C> {
 
     /// A finite number, or `default` when absent.
     pub fn float_or(&self, key: &str, default: f32) -> Result<f32, PropError> {
+        if let Some(t) = self.textured_number(key, finite) {
+            return t;
+        }
         self.get(key).map_or(Ok(default), |v| number(v).and_then(finite).map_err(|m| PropError::new(key, m)))
     }
 
     /// A finite number > 0 (`what` names it in the message), or `default` when absent.
     pub fn positive_or(&self, key: &str, default: f32, what: &str) -> Result<f32, PropError> {
+        if let Some(t) = self.textured_number(key, |x| positive(x, what)) {
+            return t;
+        }
         match self.get(key) {
             None => Ok(default),
             Some(v) => number(v).and_then(|x| positive(x, what)).map_err(|m| PropError::new(key, m)),
@@ -106,6 +165,9 @@ impl<'a, C> Props<'a, C> {
 
     /// A finite number in `[lo, hi]` (`what` names it), or `default` when absent.
     pub fn in_range_or(&self, key: &str, default: f32, lo: f32, hi: f32, what: &str) -> Result<f32, PropError> {
+        if let Some(t) = self.textured_number(key, |x| in_range(x, lo, hi, what)) {
+            return t;
+        }
         match self.get(key) {
             None => Ok(default),
             Some(v) => number(v).and_then(|x| in_range(x, lo, hi, what)).map_err(|m| PropError::new(key, m)),
@@ -114,22 +176,31 @@ impl<'a, C> Props<'a, C> {
 
     /// Three finite numbers written as one (gray) or `[r, g, b]`.
     pub fn colour(&self, key: &str) -> Result<Option<Vec3>, PropError> {
+        if let Some(t) = self.textured_colour(key, finite3) {
+            return t.map(Some);
+        }
         self.get(key).map(|v| colour(v).and_then(finite3).map_err(|m| PropError::new(key, m))).transpose()
     }
 
     /// An RGB reflectance (each component in [0, 1]), or `default` when absent.
     pub fn reflectance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
+        if let Some(t) = self.textured_colour(key, reflectance) {
+            return t;
+        }
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(reflectance).map_err(|m| PropError::new(key, m)))
     }
 
     /// An RGB radiance (each component finite and ≥ 0), or `default` when absent.
     pub fn radiance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
+        if let Some(t) = self.textured_colour(key, radiance) {
+            return t;
+        }
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(radiance).map_err(|m| PropError::new(key, m)))
     }
 
     /// A non-negative integer, or `default` when absent.
     pub fn u32_or(&self, key: &str, default: u32) -> Result<u32, PropError> {
-        match self.get(key) {
+        match self.constant(key)? {
             None => Ok(default),
             Some(Value::Integer(i)) => u32::try_from(*i).map_err(|_| PropError::new(key, format!("{i} is not an integer in [0, {}]", u32::MAX))),
             Some(v) => Err(PropError::new(key, invalid_type(v, "an integer"))),
@@ -138,7 +209,7 @@ impl<'a, C> Props<'a, C> {
 
     /// A string, if given.
     pub fn string(&self, key: &str) -> Result<Option<&'a str>, PropError> {
-        match self.get(key) {
+        match self.constant(key)? {
             None => Ok(None),
             Some(Value::String(s)) => Ok(Some(s)),
             Some(v) => Err(PropError::new(key, invalid_type(v, "a string"))),
@@ -147,7 +218,7 @@ impl<'a, C> Props<'a, C> {
 
     /// A boolean, or `default` when absent.
     pub fn bool_or(&self, key: &str, default: bool) -> Result<bool, PropError> {
-        match self.get(key) {
+        match self.constant(key)? {
             None => Ok(default),
             Some(Value::Boolean(b)) => Ok(*b),
             Some(v) => Err(PropError::new(key, invalid_type(v, "a boolean"))),
@@ -156,7 +227,7 @@ impl<'a, C> Props<'a, C> {
 
     /// A number or a name (checked by the caller against its table of names), if given.
     pub fn number_or_name(&self, key: &str) -> Result<Option<NumberOrName<'a>>, PropError> {
-        match self.get(key) {
+        match self.constant(key)? {
             None => Ok(None),
             Some(Value::String(s)) => Ok(Some(NumberOrName::Name(s))),
             Some(v) => number(v).map(|x| Some(NumberOrName::Number(x))).map_err(|m| PropError::new(key, m)),

@@ -18,7 +18,7 @@
 //!
 //! `weight` in [0, 1] (default 0.5); `bsdf_0`, `bsdf_1`: names of `[bsdf.<name>]` tables or inline tables.
 
-use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode, ONE_MINUS_EPSILON};
+use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode, ONE_MINUS_EPSILON, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 
@@ -71,6 +71,11 @@ impl Model for Blend {
     }
     fn has_non_delta(&self) -> bool {
         (self.weight < 1.0 && self.bsdf_0.has_non_delta()) || (self.weight > 0.0 && self.bsdf_1.has_non_delta())
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("weight", ParamMut::Float(&mut self.weight));
+        v.nested("bsdf_0", &mut self.bsdf_0);
+        v.nested("bsdf_1", &mut self.bsdf_1);
     }
     fn transmits(&self) -> bool {
         self.bsdf_0.transmits() || self.bsdf_1.transmits()

@@ -10,7 +10,7 @@
 //! `specular_reflectance` (default 1) scales the reflection; `material` or `eta` + `k` (both), not both.
 
 use super::conductor_table::CONDUCTORS;
-use super::{reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 
@@ -82,6 +82,9 @@ impl Model for Conductor {
     }
     fn has_non_delta(&self) -> bool {
         false
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
     }
 }
 

@@ -6,7 +6,7 @@
 //! bsdf = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }   # one number (gray) or RGB in [0, 1]; default 0.5
 //! ```
 
-use super::{Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{Bsdf, BsdfSample, Model, ParamMut, ParamVisitor, Plugin, TransportMode};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 use crate::sampling::warp::square_to_cosine_hemisphere;
@@ -48,6 +48,9 @@ impl Model for Diffuse {
     }
     fn has_non_delta(&self) -> bool {
         self.reflectance.max_element() > 0.0
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("reflectance", ParamMut::Rgb(&mut self.reflectance));
     }
 }
 

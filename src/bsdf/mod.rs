@@ -33,6 +33,7 @@ mod dielectric;
 mod diffuse;
 mod ior;
 mod microfacet;
+mod params;
 mod plastic;
 mod roughconductor;
 mod thindielectric;
@@ -41,6 +42,7 @@ mod twosided;
 mod tests;
 
 pub use at_wo::BsdfAtWo;
+pub use params::{ParamMut, ParamVisitor};
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
 pub use microfacet::{Microfacet, MicrofacetType};
 pub use dielectric::fresnel_dielectric;
@@ -91,6 +93,12 @@ pub(crate) trait Model {
     fn transmits(&self) -> bool {
         false
     }
+    /// The parameters a texture can drive and the nested bsdfs, in a fixed order (module `params`); by
+    /// default none.
+    fn visit_params(&mut self, _visitor: &mut dyn ParamVisitor) {}
+    /// Recomputes what the type derives from its parameters at construction, after the material layer set
+    /// some of them; by default nothing.
+    fn params_changed(&mut self) {}
 }
 
 /// A BSDF type as the scene files name it: its name, keys (nested BSDFs among them) and constructor.
@@ -152,6 +160,12 @@ macro_rules! bsdf_types {
             }
             fn transmits(&self) -> bool {
                 match self { $(Bsdf::$variant(m) => m.transmits(),)* }
+            }
+            fn visit_params(&mut self, visitor: &mut dyn ParamVisitor) {
+                match self { $(Bsdf::$variant(m) => m.visit_params(visitor),)* }
+            }
+            fn params_changed(&mut self) {
+                match self { $(Bsdf::$variant(m) => m.params_changed(),)* }
             }
         }
     };
@@ -286,6 +300,17 @@ impl Bsdf {
     #[must_use]
     pub fn transmits(&self) -> bool {
         Model::transmits(self)
+    }
+
+    /// Walks the parameters a texture can drive and the nested bsdfs (module `params`).
+    pub fn visit_params(&mut self, visitor: &mut dyn ParamVisitor) {
+        Model::visit_params(self, visitor);
+    }
+
+    /// Recomputes what the BSDF derives from its parameters, after some were set through
+    /// [`Bsdf::visit_params`] (nested bsdfs first).
+    pub fn params_changed(&mut self) {
+        Model::params_changed(self);
     }
 }
 

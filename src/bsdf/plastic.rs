@@ -23,7 +23,7 @@
 use std::f32::consts::FRAC_1_PI;
 
 use super::ior::{ior_or, AIR};
-use super::{fresnel_dielectric, non_delta_sample, reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{fresnel_dielectric, non_delta_sample, reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 use crate::sampling::warp::square_to_cosine_hemisphere;
@@ -59,6 +59,13 @@ fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
     Ok(Bsdf::Plastic(Plastic::new(eta, diffuse_reflectance, specular_reflectance, nonlinear)))
 }
 
+/// `R'/(η²·π)` with `R' = R/(1 − F_dr,int)`, or `R/(1 − R·F_dr,int)` when `nonlinear` (Mitsuba's plastic.cpp).
+fn base_over_pi(eta: f32, diffuse_reflectance: Vec3, nonlinear: bool) -> Vec3 {
+    let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
+    let inner = if nonlinear { Vec3::ONE - diffuse_reflectance * fdr_int } else { Vec3::splat(1.0 - fdr_int) };
+    diffuse_reflectance / inner * (FRAC_1_PI / (eta * eta))
+}
+
 /// The diffuse Fresnel reflectance `∫ F(cos θ)·2cos θ sin θ dθ` of an interface of relative index `eta`, by
 /// the fits Mitsuba uses (`fresnel_diffuse_reflectance`, include/mitsuba/render/fresnel.h): Egan &
 /// Hilgeman 1973 for `eta < 1`, `−1.4399η² + 0.7099η + 0.6681 + 0.0636/η`; d'Eon & Irving 2011 otherwise,
@@ -77,9 +84,7 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 impl Plastic {
     #[must_use]
     pub fn new(eta: f32, diffuse_reflectance: Vec3, specular_reflectance: Vec3, nonlinear: bool) -> Self {
-        let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
-        let inner = if nonlinear { Vec3::ONE - diffuse_reflectance * fdr_int } else { Vec3::splat(1.0 - fdr_int) };
-        let base_over_pi = diffuse_reflectance / inner * (FRAC_1_PI / (eta * eta));
+        let base_over_pi = base_over_pi(eta, diffuse_reflectance, nonlinear);
         let (d_mean, s_mean) = (diffuse_reflectance.element_sum() / 3.0, specular_reflectance.element_sum() / 3.0);
         let specular_weight = if d_mean + s_mean > 0.0 { s_mean / (d_mean + s_mean) } else { 0.0 };
         Self { eta, diffuse_reflectance, specular_reflectance, nonlinear, base_over_pi, specular_weight }
@@ -144,6 +149,15 @@ impl Model for Plastic {
     }
     fn has_non_delta(&self) -> bool {
         self.diffuse_reflectance.max_element() > 0.0
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("diffuse_reflectance", ParamMut::Rgb(&mut self.diffuse_reflectance));
+        v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
+    }
+    /// The base's factor from the (textured) diffuse reflectance. The specular sampling weight stays the
+    /// one made from the parameters' means, as Mitsuba makes it from its textures' means (plastic.cpp).
+    fn params_changed(&mut self) {
+        self.base_over_pi = base_over_pi(self.eta, self.diffuse_reflectance, self.nonlinear);
     }
 }
 

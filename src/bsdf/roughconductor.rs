@@ -25,7 +25,7 @@
 
 use super::conductor::{self, fresnel_conductor_rgb};
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 use std::f32::consts::PI;
@@ -85,6 +85,10 @@ impl Model for RoughConductor {
     }
     fn has_non_delta(&self) -> bool {
         self.specular_reflectance.max_element() > 0.0
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
+        v.param("alpha", ParamMut::Float(&mut self.distribution.alpha));
     }
 }
 

@@ -12,7 +12,7 @@
 //! ```
 
 use super::ior::{ior_or, AIR, BK7};
-use super::{fresnel_dielectric, reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{fresnel_dielectric, reflect_z, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 
@@ -73,6 +73,10 @@ impl Model for ThinDielectric {
     }
     fn transmits(&self) -> bool {
         true
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
+        v.param("specular_transmittance", ParamMut::Rgb(&mut self.specular_transmittance));
     }
 }
 

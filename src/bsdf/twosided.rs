@@ -8,7 +8,7 @@
 //!
 //! The inner BSDF must not transmit (a dielectric), as in Mitsuba.
 
-use super::{flip_z, Bsdf, BsdfSample, Model, Plugin, TransportMode};
+use super::{flip_z, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 
@@ -77,5 +77,8 @@ impl Model for TwoSided {
     }
     fn transmits(&self) -> bool {
         self.0.transmits()
+    }
+    fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
+        v.nested("bsdf", &mut self.0);
     }
 }

@@ -91,8 +91,8 @@ pub fn describe(scene: &Scene) -> String {
     );
     let (centre, radius) = scene.bounds.bounding_sphere();
     let _ = writeln!(s, "  geometry    {} triangles, {} vertices, bounding sphere centre {} radius {radius:.4}", scene.triangle_count(), scene.mesh.positions.len(), fmt_vec(centre));
-    let delta = scene.bsdfs.iter().filter(|b| b.has_delta()).count();
-    let _ = writeln!(s, "  materials   {} ({}); {delta} with a delta lobe (mirror/glass)", scene.bsdfs.len(), tally(scene.bsdfs.iter().map(bsdf_kind)));
+    let delta = scene.materials.iter().filter(|m| m.facts().has_delta).count();
+    let _ = writeln!(s, "  materials   {} ({}); {delta} with a delta lobe (mirror/glass)", scene.materials.len(), tally(scene.materials.iter().map(|m| bsdf_kind(m.template()))));
     let lights = scene.lights.lights();
     let _ = writeln!(s, "  lights      {} ({}), total power {:.4}", lights.len(), if lights.is_empty() { "none".into() } else { tally(lights.iter().map(light_kind)) }, scene.lights.total_power());
     let _ = writeln!(s, "  estimator   {} (k = {}, max radius {:.4})", settings.estimator.name(), settings.knn, settings.max_radius);

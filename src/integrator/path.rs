@@ -144,7 +144,7 @@ pub struct PathTracer<'a> {
     caustics: CausticEstimator<'a>,
     /// Eye samples per pixel that share this pass's photon map (α of paper eq. 2).
     alpha: f32,
-    /// Per entry of `scene.bsdfs`.
+    /// Per entry of `scene.materials`.
     materials: Vec<MaterialUse>,
 }
 
@@ -152,7 +152,7 @@ impl<'a> PathTracer<'a> {
     /// The tracer of a pass whose eye samples per pixel are `alpha`, with the caustic estimator `caustics`.
     #[must_use]
     pub fn new(scene: &'a Scene, accel: &'a dyn Accel, caustics: CausticEstimator<'a>, alpha: f32) -> Self {
-        let materials = scene.bsdfs.iter().map(|b| MaterialUse { non_delta: b.has_non_delta(), chooses_lobe: b.chooses_lobe() }).collect();
+        let materials = scene.materials.iter().map(|m| MaterialUse { non_delta: m.facts().has_non_delta, chooses_lobe: m.facts().chooses_lobe }).collect();
         Self { scene, accel, caustics, alpha, materials }
     }
 
@@ -306,7 +306,7 @@ impl<'a> PathTracer<'a> {
             return;
         }
 
-        let bsdf = &scene.bsdfs[si.material as usize];
+        let bsdf = scene.bsdf_at(&si);
         let material = self.materials[si.material as usize];
         let wo_local = si.frame.to_local(wo_world);
         // The caustic estimators' look-up at this vertex, made before the shadow ray: its cache misses
@@ -345,7 +345,7 @@ impl<'a> PathTracer<'a> {
         if let (Some((_, nee)), Some(false)) = (path.shadow.take(), occluded) {
             path.l += nee;
         }
-        let bsdf = &self.scene.bsdfs[si.material as usize];
+        let bsdf = self.scene.bsdf_at(&si);
         let material = self.materials[si.material as usize];
         let sampler = &mut path.sampler;
 
@@ -359,7 +359,7 @@ impl<'a> PathTracer<'a> {
         if let (Some(_), 0) = (looked_up, longest) {
             area = Some(OriginArea::Deferred { p: si.p, ng: si.ng, wo_side: wo_world.dot(si.ng) });
         } else if let Some(looked_up) = looked_up {
-            let rx = self.caustics.receiver(&si, bsdf, wo_world, wo_local, looked_up);
+            let rx = self.caustics.receiver(&si, &bsdf, wo_world, wo_local, looked_up);
             let p_gather = self.caustics.gather_probability(&rx, path.beta, path.l.max(path.pixel_mean), scratch);
             // The roulette's number is drawn whether P < 1 or not, and independent of the pixel's other
             // samples (`Sampler::next_independent_1d`): P reads their radiance (`pixel_mean`) and their

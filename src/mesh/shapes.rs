@@ -1,8 +1,8 @@
 //! Built-in shapes as triangle meshes, in Mitsuba's canonical frames (before `to_world`).
 //!
 //! - [`rectangle`]: the square [-1,1]² in the xy-plane, facing +z (2 triangles).
-//! - [`cube`]: the cube [-1,1]³, outward faces, flat normals (12 triangles, 24 vertices).
-//! - [`sphere`]: a closed UV sphere with shared vertices (watertight) and smooth normals.
+//! - [`cube`]: the cube [-1,1]³, outward faces, flat normals (12 triangles, 24 vertices), Mitsuba's uvs.
+//! - [`sphere`]: a closed UV sphere, watertight in its positions, smooth normals, Mitsuba's uvs.
 //!
 //! Triangles wind counter-clockwise seen from the side their normal points to, so the geometric
 //! normal `(p1 − p0) × (p2 − p0)` is the outward/front normal.
@@ -21,61 +21,82 @@ pub fn rectangle() -> TriangleMesh {
     }
 }
 
-/// The cube [-1,1]³ with outward-facing flat faces.
+/// The cube [-1,1]³ with outward-facing flat faces: Mitsuba's `cube` mesh (src/shapes/cube.cpp), its 24
+/// vertices, their uvs (each face onto [0, 1]²) and its 12 triangles as Mitsuba lists them.
 #[must_use]
 pub fn cube() -> TriangleMesh {
-    let mut mesh = TriangleMesh { normals: Some(Vec::new()), uvs: Some(Vec::new()), ..Default::default() };
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = sign;
-            // Two tangents with t1 × t2 = n.
-            let mut t1 = Vec3::ZERO;
-            t1[(axis + 1) % 3] = 1.0;
-            let t2 = n.cross(t1);
-            let base = mesh.positions.len() as u32;
-            for (a, b) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                mesh.positions.push(n + a * t1 + b * t2);
-                mesh.normals.as_mut().expect("set above").push(n);
-                mesh.uvs.as_mut().expect("set above").push(Vec2::new(0.5 * (a + 1.0), 0.5 * (b + 1.0)));
-            }
-            mesh.indices.push([base, base + 1, base + 2]);
-            mesh.indices.push([base, base + 2, base + 3]);
-        }
+    const P: [[f32; 3]; 24] = [
+        [1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0], [-1.0, -1.0, -1.0],
+        [1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0],
+        [1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [1.0, -1.0, 1.0],
+        [1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, -1.0, 1.0],
+        [-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, -1.0],
+        [1.0, 1.0, -1.0], [1.0, -1.0, -1.0], [-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0],
+    ];
+    const N: [[f32; 3]; 6] = [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]];
+    const UV: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let mut indices = Vec::with_capacity(12);
+    for face in 0..6u32 {
+        let b = 4 * face;
+        indices.push([b, b + 1, b + 2]);
+        indices.push([b + 3, b, b + 2]);
     }
-    mesh
+    TriangleMesh {
+        positions: P.iter().map(|&p| Vec3::from_array(p)).collect(),
+        indices,
+        normals: Some((0..24).map(|i| Vec3::from_array(N[i / 4])).collect()),
+        uvs: Some((0..24).map(|i| Vec2::from_array(UV[i % 4])).collect()),
+    }
 }
 
-/// A closed UV sphere with `rings` latitude bands (≥ 2) and `segments` longitude bands (≥ 3).
-/// Vertices are shared, so the mesh is watertight; the poles are single vertices with triangle fans
-/// (no zero-area triangles). Normals are the exact sphere normals at the vertices.
+/// A closed UV sphere with `rings` latitude bands (≥ 2) and `segments` longitude bands (≥ 3), its poles on
+/// ±z and its uvs Mitsuba's (`sphere.cpp`: `u = φ/2π` with `φ = atan2(y, x)` in [0, 2π), `v = θ/π` with `θ`
+/// from +z). The seam (`φ = 0`, where `u` jumps from 1 to 0) and the poles (where `u` is undefined) have a
+/// vertex per band, at bit-identical positions, so the mesh is watertight in its positions while each
+/// triangle's uvs are continuous; pole vertices take the `u` of their band's middle. Normals are the exact
+/// sphere normals at the vertices.
 #[must_use]
 pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> TriangleMesh {
+    use std::f32::consts::{PI, TAU};
     let rings = rings.max(2);
     let segments = segments.max(3);
-    let mut positions = Vec::with_capacity(((rings - 1) * segments + 2) as usize);
-    let mut normals = Vec::with_capacity(positions.capacity());
-    let mut uvs = Vec::with_capacity(positions.capacity());
-    let push = |n: Vec3, uv: Vec2, positions: &mut Vec<Vec3>, normals: &mut Vec<Vec3>, uvs: &mut Vec<Vec2>| {
-        positions.push(center + radius * n);
-        normals.push(n);
-        uvs.push(uv);
-    };
-    push(Vec3::Y, Vec2::new(0.5, 0.0), &mut positions, &mut normals, &mut uvs); // north pole = 0
+    let columns = segments + 1;
+    let vertex_count = ((rings - 1) * columns + 2 * segments) as usize;
+    let mut positions = Vec::with_capacity(vertex_count);
+    let mut normals = Vec::with_capacity(vertex_count);
+    let mut uvs = Vec::with_capacity(vertex_count);
+    for s in 0..segments {
+        positions.push(center + radius * Vec3::Z);
+        normals.push(Vec3::Z);
+        uvs.push(Vec2::new((s as f32 + 0.5) / segments as f32, 0.0));
+    }
     for r in 1..rings {
-        let theta = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..segments {
-            let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
-            push(n, Vec2::new(s as f32 / segments as f32, r as f32 / rings as f32), &mut positions, &mut normals, &mut uvs);
+        let theta = PI * r as f32 / rings as f32;
+        let row = positions.len();
+        for s in 0..columns {
+            // The seam's second column repeats the first's position and normal bit for bit.
+            let (p, n) = if s == segments {
+                (positions[row], normals[row])
+            } else {
+                let phi = TAU * s as f32 / segments as f32;
+                let n = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+                (center + radius * n, n)
+            };
+            positions.push(p);
+            normals.push(n);
+            uvs.push(Vec2::new(s as f32 / segments as f32, r as f32 / rings as f32));
         }
     }
     let south = positions.len() as u32;
-    push(-Vec3::Y, Vec2::new(0.5, 1.0), &mut positions, &mut normals, &mut uvs);
-    let ring = |r: u32, s: u32| 1 + (r - 1) * segments + (s % segments);
+    for s in 0..segments {
+        positions.push(center - radius * Vec3::Z);
+        normals.push(-Vec3::Z);
+        uvs.push(Vec2::new((s as f32 + 0.5) / segments as f32, 1.0));
+    }
+    let ring = |r: u32, s: u32| segments + (r - 1) * columns + s;
     let mut indices = Vec::with_capacity((2 * segments * (rings - 1)) as usize);
     for s in 0..segments {
-        indices.push([0, ring(1, s), ring(1, s + 1)]);
+        indices.push([s, ring(1, s), ring(1, s + 1)]);
     }
     for r in 1..rings - 1 {
         for s in 0..segments {
@@ -85,7 +106,7 @@ pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> TriangleM
         }
     }
     for s in 0..segments {
-        indices.push([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
+        indices.push([south + s, ring(rings - 1, s + 1), ring(rings - 1, s)]);
     }
     TriangleMesh { positions, indices, normals: Some(normals), uvs: Some(uvs) }
 }

@@ -290,12 +290,14 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
         out.rays += 1;
         let Some(hit) = accel.intersect(&ray) else { return };
         let si = scene.interaction(&ray, &hit);
-        let bsdf = &scene.bsdfs[si.material as usize];
+        // Where photons are stored and which surfaces carry them on are facts of the material, not of the
+        // hit (`crate::material`): the eye paths decide by the same facts where to gather.
+        let facts = scene.materials[si.material as usize].facts();
         let wi_world = -ray.dir.normalize();
-        if delta_bounces > 0 && bsdf.has_non_delta() {
+        if delta_bounces > 0 && facts.has_non_delta {
             out.photons.push(Photon::new(si.p, wi_world, power, pdf_emit), delta_bounces);
         }
-        if !bsdf.has_delta() {
+        if !facts.has_delta {
             return;
         }
         if !photon_chain_reaches(delta_bounces + 1, em.longest_chain) {
@@ -307,6 +309,7 @@ fn trace_one(em: &Emitter<'_>, sampler: &mut Sampler, out: &mut Traced) {
             return;
         }
         let wo_local = si.frame.to_local(wi_world);
+        let bsdf = scene.bsdf_at(&si);
         let Some(bs) = bsdf.sample(wo_local, sampler.next_1d(), sampler.next_2d(), TransportMode::Importance) else { return };
         if !bs.delta {
             // The first hit chose a non-delta lobe (not a caustic photon), or a later one did after storing.

@@ -159,7 +159,7 @@ pub fn fingerprint(scene: &Scene, settings: &RenderSettings, backend: BackendKin
     h.field("flat", &flat);
     // Debug output streams into the hash (no string is built): f32 Debug prints the shortest text that
     // reads back to the same bits, so equal text means equal values.
-    let _ = write!(h, "bsdfs {:?} lights {:?} camera {:?} integrator {:?}", scene.bsdfs, scene.lights, scene.camera, scene.integrator);
+    let _ = write!(h, "materials {:?} lights {:?} camera {:?} integrator {:?}", scene.materials, scene.lights, scene.camera, scene.integrator);
     // The rounds' length changes no image (`render::round`): left out.
     let settings = RenderSettings { round_seconds: 0.0, ..settings.clone() };
     let _ = write!(h, "settings {settings:?} parts {parts}");

@@ -21,17 +21,17 @@ use super::desc::{
 };
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
+use super::textures::Textures;
 use super::plugins::{self, check_keys, Role};
 use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix};
 use super::xml::Places;
 use super::Scene;
-use crate::bsdf::Bsdf;
 use crate::camera::{Camera, CameraError, FovAxis};
 use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
-use crate::math::{Aabb, Mat3, Mat4, Vec3};
+use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
 
 /// Default sphere tessellation: 128 rings × 256 segments = 65,024 triangles. The chord error is at most
@@ -46,6 +46,7 @@ const SPHERE_MAX_TRIANGLES: u64 = 1 << 26;
 enum Geometry {
     File {
         path: PathBuf,
+        flip_tex_coords: bool,
     },
     /// Shape `shape_index` of a Mitsuba serialized file.
     Serialized {
@@ -130,7 +131,8 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     // Phase 1: plan.
     let integrator = integrator_settings(&ctx, &file)?;
     let given_camera = file.sensor.as_ref().map(|s| camera(ctx, s)).transpose()?;
-    let mut materials = Materials::new(&ctx, &file.bsdf)?;
+    let textures = Textures::new(ctx, &file.texture, base_dir)?;
+    let mut materials = Materials::new(ctx, &file.bsdf, textures)?;
     let mut shape_plans = Vec::with_capacity(file.shape.len());
     for (i, shape) in file.shape.iter().enumerate() {
         shape_plans.push(plan_shape(&ctx, &join_index("shape", i), shape, base_dir, &mut materials)?);
@@ -139,13 +141,13 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     for (i, emitter) in file.emitter.iter().enumerate() {
         emitter_plans.push(plan_emitter(&ctx, &join_index("emitter", i), emitter, base_dir)?);
     }
-    let bsdfs: Vec<Bsdf> = materials.bsdfs;
+    let (materials, textures) = materials.finish(ctx)?;
 
     // Phase 2: every referenced file exists.
     let files = shape_plans
         .iter()
         .filter_map(|s| match &s.geometry {
-            Geometry::File { path } | Geometry::Serialized { path, .. } => Some((join_key(&s.key, "filename"), path)),
+            Geometry::File { path, .. } | Geometry::Serialized { path, .. } => Some((join_key(&s.key, "filename"), path)),
             _ => None,
         })
         .chain(emitter_plans.iter().filter_map(|e| match e {
@@ -168,6 +170,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     };
     let mut tri_material = Vec::new();
     let mut tri_flat = Vec::new();
+    let mut tri_uv = Vec::new();
     let mut lights = Vec::new();
     for plan in &shape_plans {
         let placed = load_and_place(&ctx, plan)?;
@@ -177,6 +180,12 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
             return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
         }
         mesh.append(&placed);
+        if !textures.is_empty() {
+            tri_uv.extend(placed.indices.iter().map(|idx| match &placed.uvs {
+                Some(uvs) => idx.map(|k| uvs[k as usize]),
+                None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+            }));
+        }
         tri_material.extend(std::iter::repeat_n(plan.material, n));
         tri_flat.extend(std::iter::repeat_n(plan.flat, n));
         if let Some(radiance) = plan.radiance {
@@ -228,7 +237,9 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         mesh,
         tri_material,
         tri_flat,
-        bsdfs,
+        materials,
+        textures,
+        tri_uv,
         lights,
         camera,
         integrator,
@@ -362,6 +373,7 @@ fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), 
         ("filename", s.filename.is_some()),
         ("shape_index", s.shape_index.is_some()),
         ("face_normals", s.face_normals.is_some()),
+        ("flip_tex_coords", s.flip_tex_coords.is_some()),
         ("center", s.center.is_some()),
         ("radius", s.radius.is_some()),
         ("rings", s.rings.is_some()),
@@ -391,6 +403,7 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
             }
             Geometry::File {
                 path: base_dir.join(filename),
+                flip_tex_coords: s.flip_tex_coords.unwrap_or(true),
             }
         }
         // Mitsuba reads any file name: the format id inside tells (`mesh::serialized`).
@@ -508,10 +521,14 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path)
 /// The shape's triangles in world space, with per-vertex normals.
 fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, SceneError> {
     let mut mesh = match &plan.geometry {
-        Geometry::File { path } => {
+        Geometry::File { path, flip_tex_coords } => {
             let key = join_key(&plan.key, "filename");
-            let mesh = crate::mesh::load_mesh(path).map_err(|e| ctx.asset_error(&key, path, e.to_string()))?;
+            let mut mesh = crate::mesh::load_mesh(path).map_err(|e| ctx.asset_error(&key, path, e.to_string()))?;
             check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
+            // Mitsuba's OBJ and PLY readers (obj.cpp, ply.cpp: `flip_tex_coords`, default true).
+            if let (Some(uvs), true) = (&mut mesh.uvs, *flip_tex_coords) {
+                uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+            }
             mesh
         }
         Geometry::Serialized { path, shape_index } => {

@@ -40,16 +40,21 @@ fn key_error(file: &Path, message: &str) -> SceneError {
     SceneError::Key { file: file.to_path_buf(), key: String::new(), line: None, message: message.to_string() }
 }
 
-/// Rewrites every relative `filename` of the shapes and emitters from `from` to `to` (directories).
+/// Rewrites every relative `filename` of the document (shapes, emitters, textures, wherever they nest) from
+/// `from` to `to` (directories).
 fn rebase_filenames(doc: &mut Table, from: &Path, to: &Path) {
-    for list in ["shape", "emitter"] {
-        let Some(Value::Array(items)) = doc.get_mut(list) else { continue };
-        for item in items {
-            if let Some(Value::String(f)) = item.as_table_mut().and_then(|t| t.get_mut("filename")) {
-                if Path::new(f.as_str()).is_relative() {
-                    *f = relative_to(&absolute(&from.join(f.as_str())), &absolute(to)).to_string_lossy().replace('\\', "/");
+    for (key, value) in doc.iter_mut() {
+        match value {
+            Value::String(f) if key == "filename" && Path::new(f.as_str()).is_relative() => {
+                *f = relative_to(&absolute(&from.join(f.as_str())), &absolute(to)).to_string_lossy().replace('\\', "/");
+            }
+            Value::Table(t) => rebase_filenames(t, from, to),
+            Value::Array(items) => {
+                for t in items.iter_mut().filter_map(Value::as_table_mut) {
+                    rebase_filenames(t, from, to);
                 }
             }
+            _ => {}
         }
     }
 }

@@ -26,6 +26,9 @@ pub(crate) struct SceneFile {
     pub sensor: Option<SensorDesc>,
     #[serde(default)]
     pub bsdf: BTreeMap<String, PluginDesc>,
+    /// Named textures, referenced from a property as `{ texture = "<name>" }` (`scene::textures`).
+    #[serde(default)]
+    pub texture: BTreeMap<String, PluginDesc>,
     #[serde(default)]
     pub shape: Vec<ShapeDesc>,
     #[serde(default)]
@@ -318,6 +321,8 @@ pub(crate) struct ShapeDesc {
     /// Which shape of a `serialized` file (default 0, its first).
     pub shape_index: Option<u32>,
     pub face_normals: Option<bool>,
+    /// OBJ and PLY: `v ↦ 1 − v` on the file's texture coordinates (Mitsuba's default, true).
+    pub flip_tex_coords: Option<bool>,
     pub flip_normals: Option<bool>,
     pub center: Option<[f32; 3]>,
     pub radius: Option<f32>,

@@ -2,7 +2,10 @@
 //! rules for spawning rays from a surface. Both intersection backends go through it, so they shade
 //! identically (Mitsuba 3's `compute_surface_interaction`; pbrt-v4 `Triangle::InteractionFromIntersection`).
 
+use std::borrow::Cow;
+
 use super::Scene;
+use crate::bsdf::{Bsdf, ParamMut};
 use crate::accel::Hit;
 use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
@@ -82,6 +85,35 @@ impl Scene {
             prim: hit.prim,
             material: tri.material,
         }
+    }
+
+    /// The BSDF of the material at `si`, its textures evaluated there (`crate::material`): the material's
+    /// own BSDF, not a copy, when it has no texture.
+    #[inline]
+    #[must_use]
+    pub fn bsdf_at(&self, si: &SurfaceInteraction) -> Cow<'_, Bsdf> {
+        let material = &self.materials[si.material as usize];
+        if !material.is_textured() {
+            return Cow::Borrowed(material.template());
+        }
+        let uv = self.tex_uv(si);
+        material.bsdf_at(|texture, param| {
+            let t = &self.textures[texture as usize];
+            match param {
+                ParamMut::Rgb(v) => *v = t.eval_rgb(uv),
+                ParamMut::Float(x) => *x = t.eval_1(uv),
+            }
+        })
+    }
+
+    /// The texture coordinates at `si`: its triangle's vertex coordinates interpolated by its barycentrics
+    /// (Mitsuba's `Mesh::compute_surface_interaction`). Only for scenes with a textured material.
+    #[inline]
+    #[must_use]
+    pub fn tex_uv(&self, si: &SurfaceInteraction) -> Vec2 {
+        let [a, b, c] = self.tri_uv[si.prim as usize];
+        let (u, v) = (si.uv.x, si.uv.y);
+        (1.0 - u - v) * a + u * b + v * c
     }
 
     /// Reads the shading records of a batch of hits before any of them is shaded, so that their cache

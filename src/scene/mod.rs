@@ -118,6 +118,7 @@ pub mod precision;
 pub mod settings;
 mod shading;
 mod spans;
+mod textures;
 mod transform;
 mod validate;
 mod xml;
@@ -135,7 +136,9 @@ pub use shading::TriangleShading;
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
-use crate::bsdf::Bsdf;
+use crate::material::Material;
+use crate::math::Vec2;
+use crate::texture::Texture;
 pub use crate::camera::Camera;
 use crate::light::LightSet;
 use crate::math::Aabb;
@@ -155,8 +158,15 @@ pub struct Scene {
     /// `shading`, with the triangle's geometric normal), read by [`Scene::interaction`]; made at load, from
     /// the fields above.
     shading: Vec<TriangleShading>,
-    /// The materials in use (named ones once each, inline ones once per shape, the default once).
-    pub bsdfs: Vec<Bsdf>,
+    /// The materials in use (named ones once each, inline ones once per shape, the default once), indexed
+    /// by `tri_material`; [`Scene::bsdf_at`] evaluates one at a hit.
+    pub materials: Vec<Material>,
+    /// The textures the materials use (`Material::bindings` index them).
+    pub textures: Vec<Texture>,
+    /// Per triangle, the texture coordinates of its three vertices (the mesh's, or `(0, 0), (1, 0), (0, 1)`
+    /// where it has none, so that a hit's are its barycentrics, as in Mitsuba); empty when no material is
+    /// textured.
+    pub tri_uv: Vec<[Vec2; 3]>,
     pub lights: LightSet,
     pub camera: Camera,
     pub integrator: IntegratorSettings,
@@ -254,7 +264,7 @@ impl Scene {
     /// Whether any material in use has a delta lobe (else no caustic paths exist and a photon pass is useless).
     #[must_use]
     pub fn has_delta_bsdf(&self) -> bool {
-        self.bsdfs.iter().any(Bsdf::has_delta)
+        self.materials.iter().any(|m| m.facts().has_delta)
     }
 
     /// Bounds of the triangles whose material has a delta lobe (empty when there are none): a photon
@@ -263,7 +273,7 @@ impl Scene {
     pub fn delta_bounds(&self) -> Aabb {
         let mut b = Aabb::EMPTY;
         for (tri, &m) in self.mesh.indices.iter().zip(&self.tri_material) {
-            if self.bsdfs[m as usize].has_delta() {
+            if self.materials[m as usize].facts().has_delta {
                 for &v in tri {
                     b = b.grow(self.mesh.positions[v as usize]);
                 }

@@ -12,7 +12,8 @@ use super::spans::join_key;
 use super::desc::PluginDesc;
 use crate::bsdf;
 use crate::film::filter;
-use crate::props::{self, Plugin, Props};
+use crate::texture;
+use crate::props::{self, Plugin, Props, Textured};
 
 /// What kind of plugin a type is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,6 +22,7 @@ pub(crate) enum Role {
     Shape,
     Emitter,
     RFilter,
+    Texture,
 }
 
 impl Role {
@@ -31,6 +33,7 @@ impl Role {
             Role::Shape => "shape",
             Role::Emitter => "emitter",
             Role::RFilter => "rfilter",
+            Role::Texture => "texture",
         }
     }
 
@@ -38,15 +41,15 @@ impl Role {
     fn common(self) -> &'static [&'static str] {
         match self {
             Role::Shape => &["to_world", "bsdf", "emitter", "flip_normals"],
-            Role::Bsdf | Role::Emitter | Role::RFilter => &[],
+            Role::Bsdf | Role::Emitter | Role::RFilter | Role::Texture => &[],
         }
     }
 }
 
 /// (role, type, the type's own keys) of shapes and emitters. `area` is the emitter attached to a shape.
 const TYPES: &[(Role, &str, &[&str])] = &[
-    (Role::Shape, "obj", &["filename", "face_normals"]),
-    (Role::Shape, "ply", &["filename", "face_normals"]),
+    (Role::Shape, "obj", &["filename", "face_normals", "flip_tex_coords"]),
+    (Role::Shape, "ply", &["filename", "face_normals", "flip_tex_coords"]),
     (Role::Shape, "serialized", &["filename", "shape_index", "face_normals"]),
     (Role::Shape, "sphere", &["center", "radius", "rings", "segments", "face_normals"]),
     (Role::Shape, "rectangle", &[]),
@@ -64,6 +67,7 @@ pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
     let own = match role {
         Role::Bsdf => bsdf::plugin(name)?.keys,
         Role::RFilter => props::find(filter::PLUGINS, name)?.keys,
+        Role::Texture => props::find(texture::PLUGINS, name)?.keys,
         _ => TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?.2,
     };
     Some(role.common().iter().chain(own.iter()).copied().collect())
@@ -94,7 +98,21 @@ pub(crate) fn build<T, C>(
     role: Role,
     plugins: &[&Plugin<T, C>],
     d: &PluginDesc,
+    resolve: impl FnMut(&str, &toml::Value) -> Result<C, SceneError>,
+) -> Result<T, SceneError> {
+    build_textured(ctx, key, role, plugins, d, resolve, |at, _, _| Err(ctx.key_error(at, format!("a {} takes no texture", role.name()))))
+}
+
+/// [`build`] for a plugin whose properties may be textures (`props::is_texture`): `texture(key path, key,
+/// value)` resolves each one (in the order of the table) before the constructor runs.
+pub(crate) fn build_textured<'d, T, C>(
+    ctx: &ErrorContext,
+    key: &str,
+    role: Role,
+    plugins: &[&Plugin<T, C>],
+    d: &'d PluginDesc,
     mut resolve: impl FnMut(&str, &toml::Value) -> Result<C, SceneError>,
+    mut texture: impl FnMut(&str, &'d str, &'d toml::Value) -> Result<Textured, SceneError>,
 ) -> Result<T, SceneError> {
     let Some(plugin) = props::find(plugins, &d.kind) else {
         let names: Vec<&str> = plugins.iter().map(|p| p.name).collect();
@@ -109,7 +127,13 @@ pub(crate) fn build<T, C>(
             nested.push((k, resolve(&join_key(key, k), value)?));
         }
     }
-    (plugin.build)(Props::new(&d.props, plugin.keys, nested)).map_err(|e| ctx.prop_error(key, e))
+    let mut textured = Vec::new();
+    for (k, value) in &d.props {
+        if !plugin.nested.contains(&k.as_str()) && props::is_texture(value) {
+            textured.push((k.as_str(), texture(&join_key(key, k), k, value)?));
+        }
+    }
+    (plugin.build)(Props::new(&d.props, plugin.keys, nested).with_textures(textured)).map_err(|e| ctx.prop_error(key, e))
 }
 
 /// How every scene reader says that key `key` does not apply to type `kind` of `role` (whose keys are
@@ -128,7 +152,7 @@ mod tests {
         for (i, (role, name, _)) in TYPES.iter().enumerate() {
             assert!(!TYPES[..i].iter().any(|(r, n, _)| r == role && n == name), "{name} twice");
         }
-        assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals"]);
+        assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
         assert_eq!(keys(Role::Bsdf, "roughplastic"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
         assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::RFilter).count(), 0, "filters are listed by crate::film::filter");

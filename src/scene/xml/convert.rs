@@ -53,6 +53,7 @@ pub(crate) fn convert(
         options,
         notes: Vec::new(),
         named_bsdfs: Table::new(),
+        named_textures: Table::new(),
         integrator: Table::new(),
         sensor: None,
         shapes: Vec::new(),
@@ -74,6 +75,10 @@ pub(crate) fn convert(
                 c.named_bsdf(el, &name)?;
             }
             "shape" => c.shape(el)?,
+            "texture" => match el.attr("id") {
+                Some(id) => c.named_texture(el, id)?,
+                None => c.push_note(NoteKind::Ignored, el, "a top-level texture without an id is not used (as in Mitsuba)".into()),
+            },
             // An area emitter with an id is attached to the shapes that refer to it (Mitsuba: a surface
             // emitter joins the scene through its shape).
             "emitter" if el.attr("id").is_some() && el.attr("type") == Some("area") => {}
@@ -93,6 +98,9 @@ pub(crate) fn convert(
     }
     if !c.named_bsdfs.is_empty() {
         doc.insert("bsdf".into(), Value::Table(c.named_bsdfs));
+    }
+    if !c.named_textures.is_empty() {
+        doc.insert("texture".into(), Value::Table(c.named_textures));
     }
     if !c.shapes.is_empty() {
         doc.insert("shape".into(), Value::Array(c.shapes));
@@ -116,6 +124,7 @@ struct Converter<'a> {
     options: ConvertOptions,
     notes: Vec<SceneNote>,
     named_bsdfs: Table,
+    named_textures: Table,
     integrator: Table,
     sensor: Option<Table>,
     shapes: Vec<Value>,
@@ -507,6 +516,13 @@ impl<'a> Converter<'a> {
             if self.property_or_transform(el, child, key, &mut table)? {
                 continue;
             }
+            let refers_to = |tag: &str| child.tag == "ref" && child.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|r| r.tag == tag);
+            if child.tag == "texture" || refers_to("texture") {
+                let name = child.required("name")?;
+                let value = self.texture_value(child, &join_key(key, name))?;
+                self.put(&mut table, key, el, child, name, value)?;
+                continue;
+            }
             if !matches!(child.tag.as_str(), "bsdf" | "ref") {
                 return Err(unsupported(child, el));
             }
@@ -523,6 +539,39 @@ impl<'a> Converter<'a> {
             table.insert((*slot).to_string(), value);
         }
         Ok(table)
+    }
+
+    /// A `<texture>` with an `id` (at the top level or on a property) becomes the named texture
+    /// `texture.<id>`.
+    fn named_texture(&mut self, el: &Element, id: &str) -> Result<(), SceneError> {
+        if self.named_textures.contains_key(id) {
+            return Err(el.error(format!("a second texture named {}", shown(id))));
+        }
+        let table = self.leaf_plugin(el, &join_key("texture", id))?;
+        self.named_textures.insert(id.to_string(), Value::Table(table));
+        Ok(())
+    }
+
+    /// A texture on a property at key path `key`: `<texture>` inline (a table with its `type`), or a
+    /// `<ref>` to, or a `<texture>` with, an id (`{ texture = "<id>" }`, `scene::textures`).
+    fn texture_value(&mut self, el: &Element, key: &str) -> Result<Value, SceneError> {
+        self.places.insert(key, Place::plugin(el));
+        let reference = |id: &str| Value::Table(Table::from_iter([("texture".to_string(), Value::String(id.to_string()))]));
+        if el.tag == "ref" {
+            let id = self.referenced(el, "texture")?.required("id")?;
+            return Ok(reference(id));
+        }
+        if let Some(id) = el.attr("id") {
+            self.named_texture(el, id)?;
+            return Ok(reference(id));
+        }
+        let mut table = self.plugin_table(el, key)?;
+        for child in &el.children {
+            if !self.property_or_transform(el, child, key, &mut table)? {
+                return Err(unsupported(child, el));
+            }
+        }
+        Ok(Value::Table(table))
     }
 
     fn shape(&mut self, el: &'a Element) -> Result<(), SceneError> {

@@ -32,7 +32,6 @@ const IGNORED: &[(&str, &str, &str, &str)] = &[
     ("integrator", "direct", "emitter_samples", SAMPLES),
     ("integrator", "direct", "bsdf_samples", SAMPLES),
     ("integrator", "direct", "shading_samples", SAMPLES),
-    ("shape", "obj", "flip_tex_coords", "texture coordinates: caustica has no textures yet, so they change no image"),
     ("emitter", "*", "sampling_weight", "how often the light is chosen for next-event estimation: the noise, not the image"),
 ];
 

@@ -69,11 +69,12 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
     ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
     ("film", "specfilm", "a film of spectral channels", OUT_OF_SCOPE),
+    ("texture", "mesh_attribute", "a per-vertex or per-face attribute of the mesh as a texture", LATER_MATERIALS),
+    ("texture", "volume", "a volume grid as a texture", OUT_OF_SCOPE),
 ];
 
 /// Tags caustica has no element for: (tag, what Mitsuba does with it, when caustica will).
 const MITSUBA_TAGS: &[(&str, &str, &str)] = &[
-    ("texture", "a texture on a parameter (bitmap, checkerboard, ...)", LATER_MATERIALS),
     ("medium", "a participating medium (fog, smoke, subsurface)", OUT_OF_SCOPE),
     ("phase", "a phase function of a participating medium", OUT_OF_SCOPE),
     ("volume", "a volume grid of a participating medium", OUT_OF_SCOPE),
@@ -104,6 +105,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         "shape" => plugins::keys(Role::Shape, kind),
         "emitter" => plugins::keys(Role::Emitter, kind),
         "rfilter" => plugins::keys(Role::RFilter, kind),
+        "texture" => plugins::keys(Role::Texture, kind),
         "sensor" => (kind == "perspective").then(|| vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"]),
         "film" => (kind == "hdrfilm")
             .then(|| vec!["width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height"]),
@@ -127,6 +129,14 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
                 push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
             }
         } else {
+            if child.tag == "texture" && tag != "bsdf" {
+                push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
+                continue;
+            }
+            if child.tag == "texture" && !keys.contains(&child.attr("name").unwrap_or_default()) {
+                let name = child.attr("name").unwrap_or_default();
+                push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
+            }
             visit(child, options, found);
         }
     }

@@ -94,16 +94,17 @@ impl Writer {
         Ok(())
     }
 
-    /// `<transform name="to_world">` with the operations in the order listed (the first applied first).
-    fn transform(&mut self, at: &str, v: &Value) -> Result<()> {
+    /// `<transform name="…">` (`to_world`, `to_uv`) with the operations in the order listed (the first
+    /// applied first).
+    fn transform(&mut self, at: &str, name: &str, v: &Value) -> Result<()> {
         let ops: Vec<&Value> = match v {
             Value::Array(a) => a.iter().collect(),
             one => vec![one],
         };
-        self.open("<transform name=\"to_world\">");
+        self.open(&format!("<transform name=\"{}\">", esc(name)));
         for op in ops {
-            let Some((kind, x)) = op.as_table().and_then(|t| t.iter().next()) else { return Err(format!("{at}.to_world: not a transform table")) };
-            let bad = || format!("{at}.to_world: cannot write {kind} = {x}");
+            let Some((kind, x)) = op.as_table().and_then(|t| t.iter().next()) else { return Err(format!("{at}.{name}: not a transform table")) };
+            let bad = || format!("{at}.{name}: cannot write {kind} = {x}");
             let text = match kind.as_str() {
                 "translate" => format!("<translate value=\"{}\"/>", nums(x).ok_or_else(bad)?),
                 "scale" => {
@@ -140,12 +141,30 @@ impl Writer {
             if k == "type" || skip.contains(&k.as_str()) {
                 continue;
             }
-            if k == "to_world" {
-                self.transform(at, v)?;
+            if k == "to_world" || k == "to_uv" {
+                self.transform(at, k, v)?;
+            } else if let Some(t) = v.as_table().filter(|_| crate::props::is_texture(v)) {
+                self.texture(&format!("{at}.{k}"), t, Some(k), None)?;
             } else {
                 self.property(at, k, v)?;
             }
         }
+        Ok(())
+    }
+
+    /// A texture: a reference to a named one (`{ texture = "<name>" }`), or an inline plugin, on the
+    /// property `name` or, with an `id`, at the top level.
+    fn texture(&mut self, at: &str, t: &Table, name: Option<&str>, id: Option<&str>) -> Result<()> {
+        let name = name.map(|n| format!(" name=\"{}\"", esc(n))).unwrap_or_default();
+        if let Some(reference) = t.get("texture") {
+            let reference = reference.as_str().ok_or_else(|| format!("{at}.texture: not a name"))?;
+            self.line(&format!("<ref{name} id=\"{}\"/>", esc(reference)));
+            return Ok(());
+        }
+        let id = id.map(|i| format!(" id=\"{}\"", esc(i))).unwrap_or_default();
+        self.open(&format!("<texture type=\"{}\"{name}{id}>", esc(Self::kind(at, t)?)));
+        self.body(at, t, &[])?;
+        self.close("texture");
         Ok(())
     }
 
@@ -246,6 +265,12 @@ pub(crate) fn to_xml(doc: &Table, source: &str) -> std::result::Result<String, S
     w.integrator(integrator)?;
     let sensor = doc.get("sensor").and_then(Value::as_table).ok_or("a scene needs [sensor]")?;
     w.sensor(sensor, integrator)?;
+    if let Some(textures) = doc.get("texture").and_then(Value::as_table) {
+        for (name, t) in textures {
+            let at = format!("texture.{name}");
+            w.texture(&at, t.as_table().ok_or_else(|| format!("{at}: not a table"))?, None, Some(name))?;
+        }
+    }
     if let Some(bsdfs) = doc.get("bsdf").and_then(Value::as_table) {
         for (name, b) in bsdfs {
             w.bsdf(&format!("bsdf.{name}"), b, Some(name))?;
