@@ -29,3 +29,4 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod sys;
+pub mod texture;
