@@ -148,15 +148,39 @@ mod tests {
 
     #[test]
     fn sphere_is_closed() {
-        // Every undirected edge is shared by exactly two triangles.
+        // Every undirected edge, by its end points' positions bit for bit, is shared by exactly two triangles
+        // (the seam and the poles repeat vertices for their uvs, at identical positions).
         let s = sphere(Vec3::ZERO, 1.0, 7, 9);
+        let key = |i: u32| s.positions[i as usize].to_array().map(f32::to_bits);
         let mut edges = std::collections::HashMap::new();
         for t in &s.indices {
             for k in 0..3 {
-                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
-                *edges.entry((a, b)).or_insert(0) += 1;
+                let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
             }
         }
         assert!(edges.values().all(|&c| c == 2));
+    }
+
+    #[test]
+    fn sphere_and_cube_uvs_are_mitsubas() {
+        use std::f32::consts::{PI, TAU};
+        let s = sphere(Vec3::ZERO, 1.0, 16, 32);
+        for (p, uv) in s.positions.iter().zip(s.uvs.as_ref().unwrap()) {
+            if p.z.abs() < 0.999 {
+                let phi = p.y.atan2(p.x).rem_euclid(TAU);
+                let du = (uv.x - phi / TAU).abs();
+                assert!(du < 1e-5 || (du - 1.0).abs() < 1e-5, "{p} {uv}");
+            }
+            assert!((uv.y - p.z.clamp(-1.0, 1.0).acos() / PI).abs() < 1e-5, "{p} {uv}");
+        }
+        // Every cube face maps onto [0, 1]² with its corners, as Mitsuba's table does.
+        let c = cube();
+        let uvs = c.uvs.as_ref().unwrap();
+        for face in 0..6 {
+            let mut corners: Vec<[u32; 2]> = (0..4).map(|k| uvs[4 * face + k].to_array().map(|x| x as u32)).collect();
+            corners.sort_unstable();
+            assert_eq!(corners, [[0, 0], [0, 1], [1, 0], [1, 1]]);
+        }
     }
 }

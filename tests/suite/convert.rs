@@ -70,7 +70,7 @@ fn toml_to_xml_to_toml_is_the_same_scene_and_image() {
         assert_eq!(body(&xml), body(&xml_again), "{rel}: XML of the round-tripped TOML differs");
         let (a, b) = (Scene::load(&original).unwrap(), Scene::load(&toml_path).unwrap());
         assert_eq!(a.integrator, b.integrator, "{rel}: settings");
-        assert_eq!(a.bsdfs, b.bsdfs, "{rel}: materials");
+        assert_eq!(a.materials, b.materials, "{rel}: materials");
         assert_eq!(a.tri_material, b.tri_material, "{rel}: materials per triangle");
         assert_eq!(a.mesh.indices, b.mesh.indices, "{rel}: triangles");
         assert!(a.mesh.positions.iter().zip(&b.mesh.positions).all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)), "{rel}: vertices");

@@ -68,3 +68,35 @@ fn plastic_pt_matches_mitsuba() {
 fn plastic_mis_matches_mitsuba() {
     matches_mitsuba("plastic", Estimator::Mis, 64);
 }
+
+#[test]
+fn textures_pt_match_mitsuba() {
+    matches_mitsuba("textures", Estimator::Pt, 512);
+}
+
+#[test]
+fn textures_mis_match_mitsuba() {
+    // The caustic of the glass sphere lands on the checkerboard, and a checkerboard weight blends a mirror
+    // in: the photon pass and the density estimate both see the textures at their hits.
+    matches_mitsuba("textures", Estimator::Mis, 64);
+}
+
+/// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
+/// reference to a texture that does not exist are errors at their keys.
+#[test]
+fn texture_errors_name_their_keys() {
+    let base = "[sensor]\nfov = 40\n[[shape]]\ntype = \"rectangle\"\n";
+    let cases = [
+        ("bsdf = { type = \"conductor\", eta = { type = \"checkerboard\" }, k = 1 }", "shape[0].bsdf.eta", "cannot take a texture here (the properties it can texture: specular_reflectance)"),
+        ("bsdf = { type = \"dielectric\", int_ior = { type = \"checkerboard\" } }", "shape[0].bsdf.int_ior", "this property cannot be a texture"),
+        ("bsdf = { type = \"diffuse\", reflectance = { texture = \"wood\" } }", "shape[0].bsdf.reflectance.texture", "unknown texture `wood`"),
+        ("bsdf = { type = \"diffuse\", reflectance = { type = \"bitmap\", filename = \"missing.png\" } }", "shape[0].bsdf.reflectance.filename", "missing.png"),
+        ("bsdf = { type = \"diffuse\", reflectance = { type = \"checkerboard\", color0 = 1.5 } }", "shape[0].bsdf.reflectance", "the texture's maximum"),
+    ];
+    for (bsdf, key, message) in cases {
+        let text = format!("{base}{bsdf}\n");
+        let e = Scene::from_toml_str(&text, std::path::Path::new("."), std::path::Path::new("t.toml")).err().unwrap_or_else(|| panic!("{bsdf}: accepted"));
+        let shown = e.to_string();
+        assert!(shown.contains(key) && shown.contains(message), "{bsdf}:\n{shown}");
+    }
+}

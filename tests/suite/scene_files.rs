@@ -56,7 +56,7 @@ fn cornell_matches_the_reference_numbers() {
             }
             assert!(s.tri_flat[2 * i + k]);
             assert_eq!(
-                s.bsdfs[s.tri_material[2 * i + k] as usize],
+                *s.materials[s.tri_material[2 * i + k] as usize].template(),
                 Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Diffuse(Diffuse { reflectance: refl }))))
             );
         }
@@ -77,7 +77,7 @@ fn cornell_matches_the_reference_numbers() {
             );
         }
     }
-    assert_eq!(s.bsdfs[s.tri_material[10] as usize], Bsdf::Diffuse(Diffuse { reflectance: Vec3::ZERO }));
+    assert_eq!(*s.materials[s.tri_material[10] as usize].template(), Bsdf::Diffuse(Diffuse { reflectance: Vec3::ZERO }));
     assert_eq!(s.lights.lights().len(), 1);
     match &s.lights.lights()[0] {
         Light::Area(a) => {
@@ -93,13 +93,13 @@ fn cornell_matches_the_reference_numbers() {
     let mirror = 12;
     let glass = 12 + sphere_tris;
     assert_eq!(
-        s.bsdfs[s.tri_material[mirror] as usize],
+        *s.materials[s.tri_material[mirror] as usize].template(),
         Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Conductor(Conductor {
             specular_reflectance: Vec3::ONE,
             eta_k: None
         }))))
     );
-    assert_eq!(s.bsdfs[s.tri_material[glass] as usize], Bsdf::Dielectric(Dielectric { eta: 1.5 }));
+    assert_eq!(*s.materials[s.tri_material[glass] as usize].template(), Bsdf::Dielectric(Dielectric { eta: 1.5 }));
     assert!(!s.tri_flat[mirror] && !s.tri_flat[glass]);
     for (first, c, r) in [
         (mirror, Vec3::new(-0.45, -0.65, -0.3), 0.35f32),
@@ -116,7 +116,7 @@ fn cornell_matches_the_reference_numbers() {
             );
         }
     }
-    assert_eq!(s.bsdfs.len(), 6);
+    assert_eq!(s.materials.len(), 6);
     assert!(s.has_delta_bsdf());
     assert_eq!((s.camera.width(), s.camera.height(), s.camera.crop()), (256, 256, caustica::film::Rect::new(0, 0, 256, 256)));
     assert_eq!(s.integrator.samples_per_pixel, 64);
@@ -138,7 +138,7 @@ fn interactions_from_hits() {
     assert!(si.p_error.max_element() > 0.0 && si.p_error.max_element() < 1e-5);
     assert_eq!(si.prim / 2, 2);
     assert_eq!(
-        s.bsdfs[si.material as usize],
+        *s.materials[si.material as usize].template(),
         Bsdf::TwoSided(TwoSided(Box::new(Bsdf::Diffuse(Diffuse {
             reflectance: Vec3::splat(0.8)
         }))))
