@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use super::image::{StorageFormat, TextureImage};
+use super::texels::{StorageFormat, TextureImage};
 use super::{choice_or, luminance, BitmapSpec, TextureSpec};
 use crate::math::{Mat3, Vec2, Vec3};
 use crate::props::{Plugin, PropError, Props};
@@ -39,7 +39,7 @@ pub enum WrapMode {
 impl WrapMode {
     /// Index `i` of a row or column of `n` texels, wrapped into `[0, n)` (Dr.Jit's `tex_wrap`).
     #[inline]
-    fn wrap(self, i: i64, n: u32) -> usize {
+    pub(super) fn wrap(self, i: i64, n: u32) -> usize {
         let n = i64::from(n);
         if (0..n).contains(&i) {
             return i as usize;
