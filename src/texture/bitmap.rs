@@ -44,9 +44,14 @@ impl WrapMode {
         if (0..n).contains(&i) {
             return i as usize;
         }
+        // The neighbouring periods without a division (most lookups outside [0, 1) are near it).
         (match self {
             WrapMode::Clamp => i.clamp(0, n - 1),
+            WrapMode::Repeat if (-n..0).contains(&i) => i + n,
+            WrapMode::Repeat if (n..2 * n).contains(&i) => i - n,
             WrapMode::Repeat => i.rem_euclid(n),
+            WrapMode::Mirror if (-n..0).contains(&i) => -1 - i,
+            WrapMode::Mirror if (n..2 * n).contains(&i) => 2 * n - 1 - i,
             WrapMode::Mirror => {
                 let m = i.rem_euclid(2 * n);
                 if m < n {

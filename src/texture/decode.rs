@@ -110,7 +110,7 @@ pub(super) struct Decoded {
 pub(super) struct Header {
     pub width: u64,
     pub height: u64,
-    /// Bytes the decoder's own pixel buffer takes.
+    /// Bytes reading takes besides the texels kept: the decoder's pixel buffers.
     pub decoder_bytes: u64,
     /// Whether the image is grey (one stored channel) rather than colour (three).
     pub grey: bool,
@@ -127,12 +127,18 @@ pub(super) fn read(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), Te
     let n = read_up_to(&mut file, &mut start).map_err(io_err)?;
     let format = FileFormat::detect(&start[..n]).ok_or_else(|| TextureError::UnknownFormat { path: path.to_path_buf() })?;
     drop(file);
-    match format {
+    let d = match format {
         FileFormat::Png | FileFormat::Jpeg => read_with_image(path, format, budget),
         FileFormat::Rgbe => read_rgbe(path, budget),
         FileFormat::OpenExr => read_exr(path, budget),
         FileFormat::Pfm => read_pfm(path, budget),
+    }?;
+    // What the texels are made from relies on this; a decoder that broke it is an error, not a panic.
+    if d.samples.len() as u64 != u64::from(d.width) * u64::from(d.height) * d.channels as u64 {
+        let message = format!("the decoder gave {} samples for {}×{} pixels of {} channels", d.samples.len(), d.width, d.height, d.channels);
+        return Err(TextureError::Decode { path: path.to_path_buf(), format, message });
     }
+    Ok(d)
 }
 
 /// Fills as much of `buf` as the file has.
@@ -363,11 +369,12 @@ fn read_exr(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureEr
     }
     let (width, height) = (header.layer_size.width() as u64, header.layer_size.height() as u64);
     empty_check(path, width, height)?;
-    let bytes_per_sample: u64 = list.iter().map(|c| c.sample_type.bytes_per_sample() as u64).sum();
+    // The decoder's samples, then our interleaved f32 copy of the channels kept.
+    let bytes_per_pixel: u64 = list.iter().map(|c| c.sample_type.bytes_per_sample() as u64 + 4).sum();
     budget(&Header {
         width,
         height,
-        decoder_bytes: width.saturating_mul(height).saturating_mul(bytes_per_sample),
+        decoder_bytes: width.saturating_mul(height).saturating_mul(bytes_per_pixel),
         grey: order[0] == "y",
     })?;
     let (w, h) = (u32::try_from(width), u32::try_from(height));
@@ -439,7 +446,8 @@ fn read_pfm(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureEr
         return Err(bad(format!("its size {width}×{height} exceeds 2³² − 1 pixels per side")));
     };
     let samples = width.saturating_mul(height).saturating_mul(channels);
-    budget(&Header { width, height, decoder_bytes: samples.saturating_mul(4), grey: channels == 1 })?;
+    // The file's bytes, then their f32 values.
+    budget(&Header { width, height, decoder_bytes: samples.saturating_mul(8), grey: channels == 1 })?;
     let mut bytes = vec![0u8; (samples * 4) as usize];
     r.read_exact(&mut bytes).map_err(|e| match e.kind() {
         std::io::ErrorKind::UnexpectedEof => bad(format!("the file ends before its {width}×{height}×{channels} samples")),
