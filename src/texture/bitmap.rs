@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use super::image::{StorageFormat, TextureImage};
+use super::texels::{StorageFormat, TextureImage};
 use super::{choice_or, luminance, BitmapSpec, TextureSpec};
 use crate::math::{Mat3, Vec2, Vec3};
 use crate::props::{Plugin, PropError, Props};
@@ -39,14 +39,19 @@ pub enum WrapMode {
 impl WrapMode {
     /// Index `i` of a row or column of `n` texels, wrapped into `[0, n)` (Dr.Jit's `tex_wrap`).
     #[inline]
-    fn wrap(self, i: i64, n: u32) -> usize {
+    pub(super) fn wrap(self, i: i64, n: u32) -> usize {
         let n = i64::from(n);
         if (0..n).contains(&i) {
             return i as usize;
         }
+        // The neighbouring periods without a division (most lookups outside [0, 1) are near it).
         (match self {
             WrapMode::Clamp => i.clamp(0, n - 1),
+            WrapMode::Repeat if (-n..0).contains(&i) => i + n,
+            WrapMode::Repeat if (n..2 * n).contains(&i) => i - n,
             WrapMode::Repeat => i.rem_euclid(n),
+            WrapMode::Mirror if (-n..0).contains(&i) => -1 - i,
+            WrapMode::Mirror if (n..2 * n).contains(&i) => 2 * n - 1 - i,
             WrapMode::Mirror => {
                 let m = i.rem_euclid(2 * n);
                 if m < n {

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::decode::{self, Header};
-use super::image::{stored_bytes, StorageFormat, TextureImage};
+use super::texels::{stored_bytes, StorageFormat, TextureImage};
 use super::TextureError;
 
 /// The images loaded so far and the memory limit they share.

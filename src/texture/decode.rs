@@ -110,7 +110,7 @@ pub(super) struct Decoded {
 pub(super) struct Header {
     pub width: u64,
     pub height: u64,
-    /// Bytes the decoder's own pixel buffer takes.
+    /// Bytes reading takes besides the texels kept: the decoder's pixel buffers.
     pub decoder_bytes: u64,
     /// Whether the image is grey (one stored channel) rather than colour (three).
     pub grey: bool,
@@ -127,11 +127,18 @@ pub(super) fn read(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), Te
     let n = read_up_to(&mut file, &mut start).map_err(io_err)?;
     let format = FileFormat::detect(&start[..n]).ok_or_else(|| TextureError::UnknownFormat { path: path.to_path_buf() })?;
     drop(file);
-    match format {
-        FileFormat::Png | FileFormat::Jpeg | FileFormat::Rgbe => read_with_image(path, format, budget),
+    let d = match format {
+        FileFormat::Png | FileFormat::Jpeg => read_with_image(path, format, budget),
+        FileFormat::Rgbe => read_rgbe(path, budget),
         FileFormat::OpenExr => read_exr(path, budget),
         FileFormat::Pfm => read_pfm(path, budget),
+    }?;
+    // What the texels are made from relies on this; a decoder that broke it is an error, not a panic.
+    if d.samples.len() as u64 != u64::from(d.width) * u64::from(d.height) * d.channels as u64 {
+        let message = format!("the decoder gave {} samples for {}×{} pixels of {} channels", d.samples.len(), d.width, d.height, d.channels);
+        return Err(TextureError::Decode { path: path.to_path_buf(), format, message });
     }
+    Ok(d)
 }
 
 /// Fills as much of `buf` as the file has.
@@ -155,20 +162,13 @@ fn empty_check(path: &Path, width: u64, height: u64) -> Result<(), TextureError>
     Ok(())
 }
 
-/// PNG, JPEG and Radiance HDR through the `image` crate (its decoders: `png`, `zune-jpeg`, its own RGBE
-/// reader, which converts as Mitsuba's `rgbe_to_float`: `m·2^(e−136)`, 0 when `e = 0`).
+/// PNG and JPEG through the `image` crate (its decoders: `png`, `zune-jpeg`).
 fn read_with_image(path: &Path, format: FileFormat, budget: &mut dyn FnMut(&Header) -> Result<(), TextureError>) -> Result<Decoded, TextureError> {
     use image::{ColorType, DynamicImage, ImageDecoder};
-    let decode_err = |e: image::ImageError| match e {
-        image::ImageError::IoError(source) => TextureError::Io { path: path.to_path_buf(), source },
-        e => TextureError::Decode { path: path.to_path_buf(), format, message: e.to_string() },
-    };
+    // The file opened: an error reading it is a broken image (a truncated one says "unexpected end of file").
+    let decode_err = |e: image::ImageError| TextureError::Decode { path: path.to_path_buf(), format, message: e.to_string() };
     let file = File::open(path).map_err(|source| TextureError::Io { path: path.to_path_buf(), source })?;
-    let image_format = match format {
-        FileFormat::Png => image::ImageFormat::Png,
-        FileFormat::Jpeg => image::ImageFormat::Jpeg,
-        _ => image::ImageFormat::Hdr,
-    };
+    let image_format = if format == FileFormat::Png { image::ImageFormat::Png } else { image::ImageFormat::Jpeg };
     let mut reader = image::ImageReader::with_format(BufReader::new(file), image_format);
     // Our own budget bounds the allocation (below); the crate's default (512 MiB) would refuse large textures.
     reader.limits(image::Limits::no_limits());
@@ -197,8 +197,118 @@ fn read_with_image(path: &Path, format: FileFormat, budget: &mut dyn FnMut(&Head
             return Err(TextureError::Unsupported { path: path.to_path_buf(), what });
         }
     };
-    let srgb = format != FileFormat::Rgbe;
-    Ok(Decoded { width: w, height: h, channels, samples, srgb, format })
+    Ok(Decoded { width: w, height: h, channels, samples, srgb: true, format })
+}
+
+/// A Radiance RGBE file as Mitsuba's `read_rgbe` reads it (the `image` crate's reader wants the header to
+/// start `#?RADIANCE`; Mitsuba, and the files it writes, have `#?RGBE`): a first line starting `#?`, lines
+/// up to the resolution line `-Y <height> +X <width>` among which `FORMAT=32-bit_rle_rgbe` must be, then the
+/// pixels, each scanline run-length encoded (`2 2 <width>`, then each of the four channels as runs) or, from
+/// the first scanline that is not, flat; a pixel `(r, g, b, e)` is `(r, g, b)·2^(e−136)`, 0 when `e = 0`
+/// (`rgbe_to_float`).
+fn read_rgbe(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureError>) -> Result<Decoded, TextureError> {
+    const MAX_LINE: usize = 4096;
+    const MAX_HEADER_LINES: usize = 1024;
+    let bad = |message: String| TextureError::Decode { path: path.to_path_buf(), format: FileFormat::Rgbe, message };
+    let io_err = |source: std::io::Error| match source.kind() {
+        std::io::ErrorKind::UnexpectedEof => bad("the file ends before its pixels do".into()),
+        _ => TextureError::Io { path: path.to_path_buf(), source },
+    };
+    let mut r = BufReader::new(File::open(path).map_err(io_err)?);
+    let mut line = Vec::new();
+    let mut read_line = |r: &mut BufReader<File>| -> Result<String, TextureError> {
+        line.clear();
+        (&mut *r).take(MAX_LINE as u64).read_until(b'\n', &mut line).map_err(io_err)?;
+        if line.is_empty() {
+            return Err(bad("the header ends before its resolution line (\"-Y <height> +X <width>\")".into()));
+        }
+        Ok(String::from_utf8_lossy(&line).trim_end().to_string())
+    };
+    if !read_line(&mut r)?.starts_with("#?") {
+        return Err(bad("the first line does not start with \"#?\"".into()));
+    }
+    let mut format_ok = false;
+    let mut size = None;
+    for _ in 0..MAX_HEADER_LINES {
+        let l = read_line(&mut r)?;
+        if l.starts_with("FORMAT=32-bit_rle_rgbe") {
+            format_ok = true;
+        } else if l.starts_with("FORMAT=32-bit_rle_xyze") {
+            let what = "its pixels are XYZE (CIE XYZ), which Mitsuba converts and caustica does not".to_string();
+            return Err(TextureError::Unsupported { path: path.to_path_buf(), what });
+        } else if let [y, h, x, w] = l.split_whitespace().collect::<Vec<_>>()[..] {
+            if y == "-Y" && x == "+X" {
+                let parse = |t: &str| t.parse::<u32>().map_err(|_| bad(format!("the resolution line {l:?} does not hold two whole numbers")));
+                size = Some((parse(w)?, parse(h)?));
+                break;
+            }
+        }
+    }
+    let Some((w, h)) = size else { return Err(bad("no resolution line (\"-Y <height> +X <width>\") in the header".into())) };
+    if !format_ok {
+        return Err(bad("the header has no FORMAT=32-bit_rle_rgbe line".into()));
+    }
+    let (width, height) = (u64::from(w), u64::from(h));
+    empty_check(path, width, height)?;
+    let pixels = width * height;
+    budget(&Header { width, height, decoder_bytes: pixels.saturating_mul(12), grey: false })?;
+    let pixels = pixels as usize;
+    let mut out = Vec::with_capacity(pixels * 3);
+    let push = |out: &mut Vec<f32>, p: [u8; 4]| {
+        let f = if p[3] == 0 { 0.0 } else { libm::ldexpf(1.0, i32::from(p[3]) - (128 + 8)) };
+        out.extend([f32::from(p[0]) * f, f32::from(p[1]) * f, f32::from(p[2]) * f]);
+    };
+    let flat = |r: &mut BufReader<File>, out: &mut Vec<f32>, count: usize| -> Result<(), TextureError> {
+        let mut p = [0u8; 4];
+        for _ in 0..count {
+            r.read_exact(&mut p).map_err(io_err)?;
+            push(out, p);
+        }
+        Ok(())
+    };
+    if !(8..=0x7fff).contains(&w) {
+        // Run-length encoding is not allowed at these widths.
+        flat(&mut r, &mut out, pixels)?;
+    } else {
+        let wu = w as usize;
+        let mut buffer = vec![0u8; 4 * wu];
+        for y in 0..h as usize {
+            let mut p = [0u8; 4];
+            r.read_exact(&mut p).map_err(io_err)?;
+            if p[0] != 2 || p[1] != 2 || p[2] & 0x80 != 0 {
+                // Not run-length encoded: this pixel and the rest of the image, flat.
+                push(&mut out, p);
+                flat(&mut r, &mut out, pixels - y * wu - 1)?;
+                break;
+            }
+            if (usize::from(p[2]) << 8 | usize::from(p[3])) != wu {
+                return Err(bad(format!("scanline {y} declares a width other than {w}")));
+            }
+            let mut at = 0;
+            for channel in 0..4 {
+                let end = (channel + 1) * wu;
+                while at < end {
+                    let mut run = [0u8; 2];
+                    r.read_exact(&mut run).map_err(io_err)?;
+                    let (count, repeat) = if run[0] > 128 { (usize::from(run[0] - 128), true) } else { (usize::from(run[0]), false) };
+                    if count == 0 || count > end - at {
+                        return Err(bad(format!("scanline {y} has a run of {count} bytes where {} remain", end - at)));
+                    }
+                    buffer[at] = run[1];
+                    if repeat {
+                        buffer[at..at + count].fill(run[1]);
+                    } else if count > 1 {
+                        r.read_exact(&mut buffer[at + 1..at + count]).map_err(io_err)?;
+                    }
+                    at += count;
+                }
+            }
+            for x in 0..wu {
+                push(&mut out, [buffer[x], buffer[wu + x], buffer[2 * wu + x], buffer[3 * wu + x]]);
+            }
+        }
+    }
+    Ok(Decoded { width: w, height: h, channels: 3, samples: Samples::F32(out), srgb: false, format: FileFormat::Rgbe })
 }
 
 /// What a channel of an OpenEXR file is, by the part of its name after the last `.`, case-insensitive
@@ -259,11 +369,12 @@ fn read_exr(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureEr
     }
     let (width, height) = (header.layer_size.width() as u64, header.layer_size.height() as u64);
     empty_check(path, width, height)?;
-    let bytes_per_sample: u64 = list.iter().map(|c| c.sample_type.bytes_per_sample() as u64).sum();
+    // The decoder's samples, then our interleaved f32 copy of the channels kept.
+    let bytes_per_pixel: u64 = list.iter().map(|c| c.sample_type.bytes_per_sample() as u64 + 4).sum();
     budget(&Header {
         width,
         height,
-        decoder_bytes: width.saturating_mul(height).saturating_mul(bytes_per_sample),
+        decoder_bytes: width.saturating_mul(height).saturating_mul(bytes_per_pixel),
         grey: order[0] == "y",
     })?;
     let (w, h) = (u32::try_from(width), u32::try_from(height));
@@ -335,7 +446,8 @@ fn read_pfm(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureEr
         return Err(bad(format!("its size {width}×{height} exceeds 2³² − 1 pixels per side")));
     };
     let samples = width.saturating_mul(height).saturating_mul(channels);
-    budget(&Header { width, height, decoder_bytes: samples.saturating_mul(4), grey: channels == 1 })?;
+    // The file's bytes, then their f32 values.
+    budget(&Header { width, height, decoder_bytes: samples.saturating_mul(8), grey: channels == 1 })?;
     let mut bytes = vec![0u8; (samples * 4) as usize];
     r.read_exact(&mut bytes).map_err(|e| match e.kind() {
         std::io::ErrorKind::UnexpectedEof => bad(format!("the file ends before its {width}×{height}×{channels} samples")),

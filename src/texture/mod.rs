@@ -30,7 +30,7 @@ mod bitmap;
 mod cache;
 mod checkerboard;
 mod decode;
-mod image;
+mod texels;
 #[cfg(test)]
 mod tests;
 
@@ -40,7 +40,7 @@ pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use cache::ImageCache;
 pub use checkerboard::Checkerboard;
 pub use decode::FileFormat;
-pub use image::{StorageFormat, TextureImage};
+pub use texels::{srgb_to_linear, StorageFormat, TextureImage};
 
 use crate::math::{Mat3, Vec2, Vec3};
 use crate::props::{Plugin, PropError, Props};

@@ -76,8 +76,8 @@ fn textures_pt_match_mitsuba() {
 
 #[test]
 fn textures_mis_match_mitsuba() {
-    // The caustic of the glass sphere lands on the checkerboard, and a checkerboard weight blends a mirror
-    // in: the photon pass and the density estimate both see the textures at their hits.
+    // The caustic of the glass sphere lands on the checkerboard: the photons and the density estimate see
+    // the texture at their hits.
     matches_mitsuba("textures", Estimator::Mis, 64);
 }
 
@@ -91,7 +91,7 @@ fn texture_errors_name_their_keys() {
         ("bsdf = { type = \"dielectric\", int_ior = { type = \"checkerboard\" } }", "shape[0].bsdf.int_ior", "this property cannot be a texture"),
         ("bsdf = { type = \"diffuse\", reflectance = { texture = \"wood\" } }", "shape[0].bsdf.reflectance.texture", "unknown texture `wood`"),
         ("bsdf = { type = \"diffuse\", reflectance = { type = \"bitmap\", filename = \"missing.png\" } }", "shape[0].bsdf.reflectance.filename", "missing.png"),
-        ("bsdf = { type = \"diffuse\", reflectance = { type = \"checkerboard\", color0 = 1.5 } }", "shape[0].bsdf.reflectance", "the texture's maximum"),
+        ("bsdf = { type = \"roughconductor\", alpha = { type = \"checkerboard\", color0 = 0, color1 = 0 } }", "shape[0].bsdf.alpha", "the texture's mean: the roughness alpha must be > 0"),
     ];
     for (bsdf, key, message) in cases {
         let text = format!("{base}{bsdf}\n");

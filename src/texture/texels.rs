@@ -120,7 +120,7 @@ impl TextureImage {
         let srgb_decoded = d.srgb && !raw;
         let out_channels = if d.channels <= 2 { 1 } else { 3 };
         let pixels = d.width as usize * d.height as usize;
-        debug_assert_eq!(d.samples.len(), pixels * d.channels);
+        // `decode::read` checked that the samples make `pixels × channels`.
         let round = |v: f32| if half { half::f16::from_f32(v).to_f32() } else { v };
         let mut data = Vec::with_capacity(pixels * out_channels);
         let mut gather = |value: &dyn Fn(usize) -> f32| {
