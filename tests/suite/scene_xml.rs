@@ -288,7 +288,7 @@ fn errors_name_file_line_and_plugin_or_property() {
     assert_names(&e, &["bad.xml:4:", "<float name=\"radius\">", "$r is not defined"]);
     // Unsupported element, reconstruction filter, integrator, ref to nothing, a blackbody spectrum.
     let e = xml_error("<texture type=\"bitmap\"/>");
-    assert_names(&e, &["bad.xml:3:", "<texture type=\"bitmap\">", "not supported"]);
+    assert_names(&e, &["bad.xml:3:", "<texture type=\"bitmap\">", "a bitmap texture reads the image named by `filename`"]);
     let e = xml_error("<integrator type=\"bdpt\"/>");
     assert_names(&e, &["bad.xml:3:", "<integrator type=\"bdpt\">"]);
     let e = xml_error("<shape type=\"cube\">\n <ref id=\"nothing\"/>\n</shape>");

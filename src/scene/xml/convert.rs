@@ -75,9 +75,14 @@ pub(crate) fn convert(
                 c.named_bsdf(el, &name)?;
             }
             "shape" => c.shape(el)?,
+            // A texture without an id is still checked (as Mitsuba instantiates it), though nothing uses it.
             "texture" => match el.attr("id") {
                 Some(id) => c.named_texture(el, id)?,
-                None => c.push_note(NoteKind::Ignored, el, "a top-level texture without an id is not used (as in Mitsuba)".into()),
+                None => {
+                    let name = (1..).map(|k| if k == 1 { format!("texture_line_{}", el.line) } else { format!("texture_line_{}_{k}", el.line) });
+                    let name = name.into_iter().find(|n| !c.ids.contains_key(n.as_str()) && !c.named_textures.contains_key(n)).expect("a free name");
+                    c.named_texture(el, &name)?;
+                }
             },
             // An area emitter with an id is attached to the shapes that refer to it (Mitsuba: a surface
             // emitter joins the scene through its shape).
