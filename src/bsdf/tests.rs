@@ -44,7 +44,7 @@ fn rough(alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
 /// Two-sided rough conductor.
 fn rough_with(kind: MicrofacetType, alpha: f32, sample_visible: bool, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
     two(Bsdf::RoughConductor(RoughConductor {
-        distribution: Microfacet { kind, alpha, sample_visible },
+        distribution: Microfacet::isotropic(kind, alpha, sample_visible),
         specular_reflectance: Vec3::ONE,
         eta_k,
     }))
@@ -81,8 +81,8 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 }
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
-/// + 6×2 + 6 + 3 blends + 4 plastic): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 91;
+/// + 2×3×4 anisotropic + 6×2 + 6 + 3 blends + 4 plastic): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 115;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -177,6 +177,25 @@ fn chi2_roughconductor_without_visible_normals() {
 }
 
 #[test]
+fn chi2_roughconductor_anisotropic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (alpha_u, alpha_v, sample_visible) in [(0.05, 0.4, true), (0.6, 0.1, true), (0.3, 0.08, false)] {
+            for (t, phi) in [(0.0, 0.3), (45.0, 0.3), (70.0, 1.9), (150.0, 4.0)] {
+                let distribution = Microfacet { kind, alpha_u, alpha_v, sample_visible };
+                cases.push((
+                    format!("roughconductor {} α ({alpha_u}, {alpha_v}) visible {sample_visible} θo {t} φo {phi}", kind.name()),
+                    two(Bsdf::RoughConductor(RoughConductor { distribution, specular_reflectance: Vec3::ONE, eta_k: Some((AU_ETA, AU_K)) })),
+                    dir(t, phi),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
 fn chi2_blend_diffuse_roughconductor() {
     let mut cases = Vec::new();
     for t in THETAS {
@@ -228,11 +247,7 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        Microfacet {
-            kind: MicrofacetType::Ggx,
-            alpha,
-            sample_visible: true,
-        }
+        Microfacet::isotropic(MicrofacetType::Ggx, alpha, true)
         .d(h)
             * h.z
             / (4.0 * wo.dot(h))
@@ -264,15 +279,18 @@ fn non_delta_zoo() -> Vec<Bsdf> {
         for kind in KINDS {
             v.push(rough_with(kind, alpha, true, None));
             v.push(two(Bsdf::RoughConductor(RoughConductor {
-                distribution: Microfacet {
-                    kind,
-                    alpha,
-                    sample_visible: alpha < 0.5,
-                },
+                distribution: Microfacet::isotropic(kind, alpha, alpha < 0.5),
                 specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
                 eta_k: Some((AU_ETA, AU_K)),
             })));
         }
+    }
+    for kind in KINDS {
+        v.push(two(Bsdf::RoughConductor(RoughConductor {
+            distribution: Microfacet { kind, alpha_u: 0.08, alpha_v: 0.5, sample_visible: kind == MicrofacetType::Ggx },
+            specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
+            eta_k: Some((AU_ETA, AU_K)),
+        })));
     }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
@@ -497,11 +515,7 @@ fn never_nan_at_grazing_or_degenerate_input() {
         }),
         Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }),
         Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet {
-                kind: MicrofacetType::Beckmann,
-                alpha: 0.3,
-                sample_visible: true,
-            },
+            distribution: Microfacet::isotropic(MicrofacetType::Beckmann, 0.3, true),
             specular_reflectance: Vec3::ONE,
             eta_k: None,
         }),
@@ -593,11 +607,7 @@ fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
     let one_sided = [
         Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.7) }),
         Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet {
-                kind: MicrofacetType::Beckmann,
-                alpha: 0.3,
-                sample_visible: true,
-            },
+            distribution: Microfacet::isotropic(MicrofacetType::Beckmann, 0.3, true),
             specular_reflectance: Vec3::ONE,
             eta_k: Some((AU_ETA, AU_K)),
         }),
