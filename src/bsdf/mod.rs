@@ -35,6 +35,7 @@ mod ior;
 mod microfacet;
 mod plastic;
 mod roughconductor;
+mod roughdielectric;
 mod thindielectric;
 mod twosided;
 #[cfg(test)]
@@ -50,6 +51,7 @@ pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
@@ -162,6 +164,7 @@ bsdf_types! {
     Conductor(conductor::Conductor),
     RoughConductor(roughconductor::RoughConductor),
     Dielectric(dielectric::Dielectric),
+    RoughDielectric(roughdielectric::RoughDielectric),
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
     Blend(blend::Blend),
