@@ -34,8 +34,10 @@ mod diffuse;
 mod ior;
 mod microfacet;
 mod plastic;
+mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
+mod roughplastic;
 mod thindielectric;
 mod twosided;
 #[cfg(test)]
@@ -52,6 +54,8 @@ pub use diffuse::Diffuse;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
+pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
@@ -167,6 +171,7 @@ bsdf_types! {
     RoughDielectric(roughdielectric::RoughDielectric),
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
+    RoughPlastic(roughplastic::RoughPlastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
 }

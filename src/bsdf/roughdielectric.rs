@@ -109,6 +109,14 @@ impl RoughDielectric {
     }
 }
 
+/// `w` refracted at the microfacet `m` (Mitsuba's `refract`): `(w·m·η_ti + cos θt)·m − η_ti·w`, with
+/// `w_m = w·m` and `(cos θt, η_ti)` from [`fresnel_dielectric`]`(w·m, η)` (`cos θt` signed) (Walter 2007
+/// eq. 40).
+#[inline]
+pub(super) fn refract(w: Vec3, m: Vec3, w_m: f32, cos_t: f32, eta_ti: f32) -> Vec3 {
+    (w_m * eta_ti + cos_t) * m - eta_ti * w
+}
+
 /// `v` on the +z side (`G1` and the visible normals are written there).
 #[inline]
 fn up(v: Vec3) -> Vec3 {
@@ -163,8 +171,7 @@ impl Model for RoughDielectric {
         let wi = if reflect {
             2.0 * wo_m * m - wo // Walter 2007 eq. 13
         } else {
-            // Mitsuba's `refract`: wi = (wo·m·η_ti + cos θt)·m − η_ti·wo, cos θt signed (Walter 2007 eq. 40).
-            (wo_m * eta_ti + cos_t) * m - eta_ti * wo
+            refract(wo, m, wo_m, cos_t, eta_ti)
         }
         .try_normalize()?;
         // A reflection below the surface or a refraction back to wo's side: G1(wi, m) = 0, lost.

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -81,9 +81,9 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 }
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
-/// + 2×3×4 anisotropic + 2×6×5 rough glass + 6×2 + 6 + 3 blends + 4 plastic): the family the Šidák correction
-/// accounts for.
-const CHI2_FAMILY: usize = 175;
+/// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic): the family
+/// the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 193;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -246,6 +246,29 @@ fn chi2_roughdielectric_beckmann() {
     chi2_roughdielectric(MicrofacetType::Beckmann);
 }
 
+/// A coloured rough plastic of polypropylene's index.
+fn rough_plastic(kind: MicrofacetType, alpha: f32, sample_visible: bool) -> Bsdf {
+    Bsdf::RoughPlastic(RoughPlastic::new(Microfacet::isotropic(kind, alpha, sample_visible), 1.49, Vec3::new(0.8, 0.5, 0.2), Vec3::ONE, false))
+}
+
+#[test]
+fn chi2_roughplastic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (alpha, visible) in [(0.05, true), (0.3, true), (0.2, false)] {
+            for t in [0.0, 45.0, 80.0] {
+                cases.push((
+                    format!("roughplastic {} α {alpha} visible {visible} θo {t}", kind.name()),
+                    two(rough_plastic(kind, alpha, visible)),
+                    wo_at(t),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
 #[test]
 fn chi2_blend_diffuse_roughconductor() {
     let mut cases = Vec::new();
@@ -346,6 +369,8 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
     v.push(two(plastic()));
+    v.push(two(rough_plastic(MicrofacetType::Beckmann, 0.1, true)));
+    v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
     v.push(blend(
         0.5,
         diffuse(0.5),
@@ -585,6 +610,8 @@ fn never_nan_at_grazing_or_degenerate_input() {
         rough_glass(MicrofacetType::Beckmann, 2.0, 2.0, false, 1.5),
         rough_glass(MicrofacetType::Ggx, 0.2, 0.2, true, 1.0),
         blend(0.5, diffuse(0.5), rough_glass(MicrofacetType::Ggx, 0.1, 0.1, true, 1.5)),
+        rough_plastic(MicrofacetType::Beckmann, 1e-7, true),
+        rough_plastic(MicrofacetType::Ggx, 3.0, false),
     ]);
     let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
     let mut wos = Vec::new();
@@ -646,6 +673,7 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
         Bsdf::Dielectric(Dielectric { eta: 1.5 }),
         rough_glass(MicrofacetType::Ggx, 0.2, 0.2, true, 1.5),
         rough_glass(MicrofacetType::Beckmann, 0.1, 0.4, false, 1.33),
+        rough_plastic(MicrofacetType::Ggx, 0.2, true),
     ];
     let mut s = Sampler::for_key(11, 0, 0);
     for bsdf in &cases {
