@@ -197,7 +197,7 @@ fn everything_unsupported_is_reported_at_once() {
 <integrator type="guided_path"/>
 {SENSOR}
 <texture type="checkerboard" id="checks"/>
-<bsdf type="roughplastic" id="floor"/>
+<bsdf type="principled" id="floor"/>
 <shape type="disk"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
 <medium type="homogeneous" id="fog"/>
@@ -209,7 +209,7 @@ fn everything_unsupported_is_reported_at_once() {
     for (line, phrase) in [
         (2, "integrator type \"guided_path\""),
         (6, "<texture> is not supported yet"),
-        (7, "bsdf type \"roughplastic\" is not supported yet"),
+        (7, "bsdf type \"principled\" is not supported yet"),
         (8, "shape type \"disk\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
@@ -217,7 +217,7 @@ fn everything_unsupported_is_reported_at_once() {
         assert!(e.contains(&format!("scene.xml:{line}: ")) && e.contains(phrase), "line {line}, {phrase:?}: {e}");
     }
     // What Mitsuba would do with each is said.
-    assert!(e.contains("Mitsuba renders a diffuse base under a rough dielectric coating"), "{e}");
+    assert!(e.contains("Mitsuba renders the Disney principled BSDF"), "{e}");
     // The command line's estimator replaces the integrator: five remain.
     let e = match Scene::load_with(&scene, &LoadOptions { replace_integrator: true, ..LoadOptions::default() }) {
         Ok(_) => panic!("loaded"),
