@@ -102,10 +102,7 @@ impl Material {
         let mut extreme = template.clone();
         set_bound(&mut extreme, &bindings, |texture, param| {
             let r = range(texture);
-            match param {
-                ParamMut::Rgb(v) => *v = r.max,
-                ParamMut::Float(x) => *x = r.mean_1,
-            }
+            param.set(|| r.max, || r.mean_1);
         });
         let facts = Facts::of(&extreme);
         Ok(Self { template, bindings: bindings.into_boxed_slice(), facts })

@@ -281,7 +281,7 @@ mod tests {
 
     fn rough(kind: MicrofacetType, alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
         Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet { kind, alpha, sample_visible: kind == MicrofacetType::Ggx },
+            distribution: Microfacet::isotropic(kind, alpha, kind == MicrofacetType::Ggx),
             specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
             eta_k,
         })
@@ -294,7 +294,7 @@ mod tests {
         let diffuse = Bsdf::Diffuse(Diffuse { reflectance: Vec3::new(0.5, 0.25, 0.125) });
         let gold = Some((Vec3::new(0.2, 0.4, 1.4), Vec3::new(3.6, 2.4, 1.8)));
         let ggx_drawn_by_d_cos = Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet { kind: MicrofacetType::Ggx, alpha: 0.2, sample_visible: false },
+            distribution: Microfacet::isotropic(MicrofacetType::Ggx, 0.2, false),
             specular_reflectance: Vec3::ONE,
             eta_k: None,
         });

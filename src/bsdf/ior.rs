@@ -52,3 +52,14 @@ pub(super) fn ior_or(p: &Props<'_, Bsdf>, key: &str, default: f32) -> Result<f32
             }),
     }
 }
+
+/// `int_ior / ext_ior` with these defaults, refused where the two are equal: Mitsuba's rough dielectric
+/// plugins (`roughdielectric`, `roughplastic`) require the indices to "be positive and differ" (an
+/// interface of one index has no half vector for refraction).
+pub(super) fn relative_eta(p: &Props<'_, Bsdf>, int_default: f32, ext_default: f32) -> Result<f32, PropError> {
+    let (int_ior, ext_ior) = (ior_or(p, "int_ior", int_default)?, ior_or(p, "ext_ior", ext_default)?);
+    if int_ior == ext_ior {
+        return Err(PropError::new("int_ior", format!("int_ior and ext_ior are both {int_ior}: they must differ (as in Mitsuba)")));
+    }
+    Ok(int_ior / ext_ior)
+}

@@ -9,11 +9,13 @@
 //!   computed from either side agree bit for bit.
 //! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
 //!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
-//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor` and `RoughConductor` reflect only when
+//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor`, `RoughConductor`, `Plastic` and
+//!   `RoughPlastic` reflect only when
 //!   `wo` and `wi` are both above the surface (+z); below, `f = 0`, `pdf_w = 0` and `sample → None`.
 //!   `TwoSided` (Mitsuba's `twosided`) mirrors a configuration below the surface to +z, so its inner BSDF
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
-//!   `Dielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the exterior) is −z.
+//!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
+//!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
 //! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
 //!   `sample → None`. Nothing returns NaN for unit, finite inputs.
 //!
@@ -35,7 +37,10 @@ mod ior;
 mod microfacet;
 mod params;
 mod plastic;
+mod rough_coating;
 mod roughconductor;
+mod roughdielectric;
+mod roughplastic;
 mod thindielectric;
 mod twosided;
 #[cfg(test)]
@@ -52,6 +57,9 @@ pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
+pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
 
@@ -176,8 +184,10 @@ bsdf_types! {
     Conductor(conductor::Conductor),
     RoughConductor(roughconductor::RoughConductor),
     Dielectric(dielectric::Dielectric),
+    RoughDielectric(roughdielectric::RoughDielectric),
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
+    RoughPlastic(roughplastic::RoughPlastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
 }

@@ -12,10 +12,26 @@
 use super::Bsdf;
 use crate::math::Vec3;
 
-/// A texturable parameter: an RGB value (a texture's `eval`) or a number (its `eval_1`).
+/// A texturable parameter: an RGB value (a texture's `eval`), a number (its `eval_1`), or two numbers that
+/// one key sets to the same value (an isotropic `alpha`, which is `alpha_u` and `alpha_v`).
 pub enum ParamMut<'a> {
     Rgb(&'a mut Vec3),
     Float(&'a mut f32),
+    FloatPair(&'a mut f32, &'a mut f32),
+}
+
+impl ParamMut<'_> {
+    /// Sets the parameter from a texture's colour (`eval`) or number (`eval_1`), whichever it takes.
+    pub fn set(self, rgb: impl FnOnce() -> Vec3, number: impl FnOnce() -> f32) {
+        match self {
+            ParamMut::Rgb(v) => *v = rgb(),
+            ParamMut::Float(x) => *x = number(),
+            ParamMut::FloatPair(x, y) => {
+                *x = number();
+                *y = *x;
+            }
+        }
+    }
 }
 
 /// What walks a BSDF's texturable parameters (see the module documentation).

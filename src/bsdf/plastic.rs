@@ -29,7 +29,7 @@ use crate::props::{PropError, Props};
 use crate::sampling::warp::square_to_cosine_hemisphere;
 
 /// Mitsuba's default interior index of `plastic`: polypropylene.
-const POLYPROPYLENE: f32 = 1.49;
+pub(super) const POLYPROPYLENE: f32 = 1.49;
 
 /// Mitsuba's `plastic`, with the factors that depend on its parameters alone.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,9 +61,7 @@ fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 
 /// `R'/(η²·π)` with `R' = R/(1 − F_dr,int)`, or `R/(1 − R·F_dr,int)` when `nonlinear` (Mitsuba's plastic.cpp).
 fn base_over_pi(eta: f32, diffuse_reflectance: Vec3, nonlinear: bool) -> Vec3 {
-    let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
-    let inner = if nonlinear { Vec3::ONE - diffuse_reflectance * fdr_int } else { Vec3::splat(1.0 - fdr_int) };
-    diffuse_reflectance / inner * (FRAC_1_PI / (eta * eta))
+    internal_scattering(diffuse_reflectance, fresnel_diffuse_reflectance(1.0 / eta), nonlinear) * (FRAC_1_PI / (eta * eta))
 }
 
 /// The diffuse Fresnel reflectance `∫ F(cos θ)·2cos θ sin θ dθ` of an interface of relative index `eta`, by
@@ -81,12 +79,32 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     }
 }
 
+/// The base's reflectance `R` after the light the coating reflects back onto it (diffuse reflectance
+/// `fdr_int` from inside) has bounced between them: `R/(1 − F_dr)`, or `R/(1 − R·F_dr)` when `nonlinear`
+/// (Mitsuba's `plastic` and `roughplastic`).
+#[must_use]
+pub(super) fn internal_scattering(diffuse_reflectance: Vec3, fdr_int: f32, nonlinear: bool) -> Vec3 {
+    let inner = if nonlinear { Vec3::ONE - diffuse_reflectance * fdr_int } else { Vec3::splat(1.0 - fdr_int) };
+    diffuse_reflectance / inner
+}
+
+/// Mitsuba's `specular_sampling_weight` of `plastic` and `roughplastic`: `s/(d + s)` of the mean specular
+/// and diffuse reflectances (0 when both are black).
+#[must_use]
+pub(super) fn specular_sampling_weight(diffuse_reflectance: Vec3, specular_reflectance: Vec3) -> f32 {
+    let (d_mean, s_mean) = (diffuse_reflectance.element_sum() / 3.0, specular_reflectance.element_sum() / 3.0);
+    if d_mean + s_mean > 0.0 {
+        s_mean / (d_mean + s_mean)
+    } else {
+        0.0
+    }
+}
+
 impl Plastic {
     #[must_use]
     pub fn new(eta: f32, diffuse_reflectance: Vec3, specular_reflectance: Vec3, nonlinear: bool) -> Self {
         let base_over_pi = base_over_pi(eta, diffuse_reflectance, nonlinear);
-        let (d_mean, s_mean) = (diffuse_reflectance.element_sum() / 3.0, specular_reflectance.element_sum() / 3.0);
-        let specular_weight = if d_mean + s_mean > 0.0 { s_mean / (d_mean + s_mean) } else { 0.0 };
+        let specular_weight = specular_sampling_weight(diffuse_reflectance, specular_reflectance);
         Self { eta, diffuse_reflectance, specular_reflectance, nonlinear, base_over_pi, specular_weight }
     }
 

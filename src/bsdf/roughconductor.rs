@@ -20,17 +20,19 @@
 //! bsdf = { type = "roughconductor", alpha = 0.2, distribution = "ggx", material = "Cu" }
 //! ```
 //!
-//! `alpha` (default 0.1, > 0), `distribution` ("beckmann", Mitsuba's default, or "ggx"), `sample_visible`
-//! (default true), and the keys of `conductor` (`specular_reflectance`, `material` or `eta` + `k`).
+//! `alpha` (default 0.1, > 0) or `alpha_u` and `alpha_v` (anisotropic: along the shading frame's tangent and
+//! bitangent), `distribution` ("beckmann", Mitsuba's default, or "ggx"), `sample_visible` (default true) —
+//! the keys of [`super::microfacet`] — and the keys of `conductor` (`specular_reflectance`, `material` or
+//! `eta` + `k`).
 
 use super::conductor::{self, fresnel_conductor_rgb};
-use super::microfacet::{Microfacet, MicrofacetType};
+use super::microfacet::{self, Microfacet, MicrofacetType};
 use super::{non_delta_sample, Bsdf, BsdfSample, Model, Plugin, TransportMode, ParamMut, ParamVisitor};
 use crate::math::{Vec2, Vec3};
 use crate::props::{PropError, Props};
 use std::f32::consts::PI;
 
-/// Mitsuba's `roughconductor` (Beckmann or GGX, isotropic, [`Microfacet`]).
+/// Mitsuba's `roughconductor` (Beckmann or GGX, isotropic or anisotropic, [`Microfacet`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoughConductor {
     pub distribution: Microfacet,
@@ -40,27 +42,15 @@ pub struct RoughConductor {
 
 pub(super) const PLUGIN: Plugin = Plugin {
     name: "roughconductor",
-    keys: &["alpha", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"],
+    keys: &["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible", "specular_reflectance", "material", "eta", "k"],
     nested: &[],
     build,
 };
 
 fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
     let (specular_reflectance, eta_k) = conductor::reflection(&p)?;
-    let kind = match p.string("distribution")? {
-        None | Some("beckmann") => MicrofacetType::Beckmann,
-        Some("ggx") => MicrofacetType::Ggx,
-        Some(other) => {
-            return Err(PropError::new(
-                "distribution",
-                format!("unknown distribution {other:?} (\"beckmann\", the default, or \"ggx\")"),
-            ))
-        }
-    };
-    let alpha = p.positive_or("alpha", 0.1, "the roughness alpha")?;
-    let sample_visible = p.bool_or("sample_visible", true)?;
     Ok(Bsdf::RoughConductor(RoughConductor {
-        distribution: Microfacet { kind, alpha, sample_visible },
+        distribution: microfacet::from_props(&p, MicrofacetType::Beckmann)?,
         specular_reflectance,
         eta_k,
     }))
@@ -88,7 +78,7 @@ impl Model for RoughConductor {
     }
     fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
         v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
-        v.param("alpha", ParamMut::Float(&mut self.distribution.alpha));
+        self.distribution.visit_params(v);
     }
 }
 
@@ -157,7 +147,7 @@ pub(super) fn f_pdf_upper(
 /// [`GgxAtWo::f_pdf`] without branches so that a loop over many `wi` vectorises (`super::at_wo`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct GgxAtWo {
-    /// The clamped α ([`Microfacet::alpha`]) and α².
+    /// The clamped α ([`Microfacet::alphas`]) and α².
     alpha: f32,
     a2: f32,
     sample_visible: bool,
@@ -168,12 +158,12 @@ pub(super) struct GgxAtWo {
 }
 
 impl GgxAtWo {
-    /// `None` unless the lobe is GGX without Fresnel and `wo.z > 0`.
+    /// `None` unless the lobe is isotropic GGX without Fresnel and `wo.z > 0`.
     pub(super) fn new(md: &Microfacet, specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo: Vec3, g1o_unmasked: f32) -> Option<Self> {
-        if md.kind != MicrofacetType::Ggx || eta_k.is_some() || wo.z <= 0.0 {
+        if md.kind != MicrofacetType::Ggx || !md.is_isotropic() || eta_k.is_some() || wo.z <= 0.0 {
             return None;
         }
-        let alpha = md.alpha();
+        let alpha = md.alphas().0;
         Some(Self { alpha, a2: alpha * alpha, sample_visible: md.sample_visible, specular_reflectance, wo, g1o_unmasked })
     }
 
@@ -254,7 +244,7 @@ mod tests {
     }
 
     fn md(kind: MicrofacetType, alpha: f32) -> Microfacet {
-        Microfacet { kind, alpha, sample_visible: true }
+        Microfacet::isotropic(kind, alpha, true)
     }
 
     #[test]
@@ -324,7 +314,7 @@ mod tests {
         for kind in [MicrofacetType::Beckmann, MicrofacetType::Ggx] {
             for sample_visible in [true, false] {
                 for alpha in [0.0f32, 1e-7, 1e-4, 0.05, 1.0, 3.0] {
-                    let m = Microfacet { kind, alpha, sample_visible };
+                    let m = Microfacet::isotropic(kind, alpha, sample_visible);
                     for z in [1e-30f32, 1e-20, 1e-7, 1e-3] {
                         let wo = Vec3::new((1.0 - z * z).sqrt(), 0.0, z);
                         for u in [

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -44,7 +44,7 @@ fn rough(alpha: f32, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
 /// Two-sided rough conductor.
 fn rough_with(kind: MicrofacetType, alpha: f32, sample_visible: bool, eta_k: Option<(Vec3, Vec3)>) -> Bsdf {
     two(Bsdf::RoughConductor(RoughConductor {
-        distribution: Microfacet { kind, alpha, sample_visible },
+        distribution: Microfacet::isotropic(kind, alpha, sample_visible),
         specular_reflectance: Vec3::ONE,
         eta_k,
     }))
@@ -81,8 +81,9 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 }
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
-/// + 6×2 + 6 + 3 blends + 4 plastic): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 91;
+/// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic): the family
+/// the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 193;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -96,6 +97,7 @@ fn run_chi2_suite(cases: &[(String, Bsdf, Vec3, PdfIntegral)], sample_count: usi
         ..Chi2Test::default()
     };
     let mut failed = Vec::new();
+    let mut lowest: Option<(f64, String)> = None;
     for (name, bsdf, wo, integral) in cases {
         let out = chi2(
             &Chi2Test {
@@ -108,6 +110,12 @@ fn run_chi2_suite(cases: &[(String, Bsdf, Vec3, PdfIntegral)], sample_count: usi
         if !out.passed() {
             failed.push(format!("{name}: {out}"));
         }
+        if lowest.as_ref().is_none_or(|(p, _)| out.p_value < *p) {
+            lowest = Some((out.p_value, format!("{name}: {out}")));
+        }
+    }
+    if let Some((_, out)) = lowest {
+        eprintln!("{} χ² tests, the lowest p-value: {out}", cases.len());
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
@@ -177,6 +185,91 @@ fn chi2_roughconductor_without_visible_normals() {
 }
 
 #[test]
+fn chi2_roughconductor_anisotropic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (alpha_u, alpha_v, sample_visible) in [(0.05, 0.4, true), (0.6, 0.1, true), (0.3, 0.08, false)] {
+            for (t, phi) in [(0.0, 0.3), (45.0, 0.3), (70.0, 1.9), (150.0, 4.0)] {
+                let distribution = Microfacet { kind, alpha_u, alpha_v, sample_visible };
+                cases.push((
+                    format!("roughconductor {} α ({alpha_u}, {alpha_v}) visible {sample_visible} θo {t} φo {phi}", kind.name()),
+                    two(Bsdf::RoughConductor(RoughConductor { distribution, specular_reflectance: Vec3::ONE, eta_k: Some((AU_ETA, AU_K)) })),
+                    dir(t, phi),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+/// Rough glass of relative index `eta`, white.
+fn rough_glass(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, sample_visible: bool, eta: f32) -> Bsdf {
+    Bsdf::RoughDielectric(RoughDielectric {
+        distribution: Microfacet { kind, alpha_u, alpha_v, sample_visible },
+        eta,
+        specular_reflectance: Vec3::ONE,
+        specular_transmittance: Vec3::ONE,
+    })
+}
+
+/// The rough-glass configurations of the χ² tests: (α_u, α_v, sample_visible, η).
+const GLASSES: [(f32, f32, bool, f32); 6] =
+    [(0.05, 0.05, true, 1.5), (0.3, 0.3, true, 1.5), (0.1, 0.5, true, 1.33), (0.3, 0.3, false, 1.5), (0.6, 0.2, false, 1.5), (0.2, 0.2, true, 1.0 / 1.5)];
+/// Incident angles for rough glass: outside (< 90°) and inside (> 90°), where total internal reflection starts
+/// at 180° − 41.8° for η = 1.5.
+const GLASS_THETAS: [f32; 5] = [0.0, 35.0, 75.0, 125.0, 160.0];
+
+fn chi2_roughdielectric(kind: MicrofacetType) {
+    let mut cases = Vec::new();
+    for (alpha_u, alpha_v, visible, eta) in GLASSES {
+        for t in GLASS_THETAS {
+            cases.push((
+                format!("roughdielectric {} α ({alpha_u}, {alpha_v}) visible {visible} η {eta} θo {t}", kind.name()),
+                rough_glass(kind, alpha_u, alpha_v, visible, eta),
+                dir(t, 0.3 + t.to_radians()),
+                // Lost samples (reflected below the surface, refracted back): ∫pdf ≤ 1.
+                PdfIntegral::AtMostOne,
+            ));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn chi2_roughdielectric_ggx() {
+    chi2_roughdielectric(MicrofacetType::Ggx);
+}
+
+#[test]
+fn chi2_roughdielectric_beckmann() {
+    chi2_roughdielectric(MicrofacetType::Beckmann);
+}
+
+/// A coloured rough plastic of polypropylene's index.
+fn rough_plastic(kind: MicrofacetType, alpha: f32, sample_visible: bool) -> Bsdf {
+    Bsdf::RoughPlastic(RoughPlastic::new(Microfacet::isotropic(kind, alpha, sample_visible), 1.49, Vec3::new(0.8, 0.5, 0.2), Vec3::ONE, false))
+}
+
+#[test]
+fn chi2_roughplastic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (alpha, visible) in [(0.05, true), (0.3, true), (0.2, false)] {
+            for t in [0.0, 45.0, 80.0] {
+                cases.push((
+                    format!("roughplastic {} α {alpha} visible {visible} θo {t}", kind.name()),
+                    two(rough_plastic(kind, alpha, visible)),
+                    wo_at(t),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
 fn chi2_blend_diffuse_roughconductor() {
     let mut cases = Vec::new();
     for t in THETAS {
@@ -228,11 +321,7 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        Microfacet {
-            kind: MicrofacetType::Ggx,
-            alpha,
-            sample_visible: true,
-        }
+        Microfacet::isotropic(MicrofacetType::Ggx, alpha, true)
         .d(h)
             * h.z
             / (4.0 * wo.dot(h))
@@ -264,19 +353,24 @@ fn non_delta_zoo() -> Vec<Bsdf> {
         for kind in KINDS {
             v.push(rough_with(kind, alpha, true, None));
             v.push(two(Bsdf::RoughConductor(RoughConductor {
-                distribution: Microfacet {
-                    kind,
-                    alpha,
-                    sample_visible: alpha < 0.5,
-                },
+                distribution: Microfacet::isotropic(kind, alpha, alpha < 0.5),
                 specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
                 eta_k: Some((AU_ETA, AU_K)),
             })));
         }
     }
+    for kind in KINDS {
+        v.push(two(Bsdf::RoughConductor(RoughConductor {
+            distribution: Microfacet { kind, alpha_u: 0.08, alpha_v: 0.5, sample_visible: kind == MicrofacetType::Ggx },
+            specular_reflectance: Vec3::new(0.9, 0.8, 0.6),
+            eta_k: Some((AU_ETA, AU_K)),
+        })));
+    }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
     v.push(two(plastic()));
+    v.push(two(rough_plastic(MicrofacetType::Beckmann, 0.1, true)));
+    v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
     v.push(blend(
         0.5,
         diffuse(0.5),
@@ -497,11 +591,7 @@ fn never_nan_at_grazing_or_degenerate_input() {
         }),
         Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }),
         Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet {
-                kind: MicrofacetType::Beckmann,
-                alpha: 0.3,
-                sample_visible: true,
-            },
+            distribution: Microfacet::isotropic(MicrofacetType::Beckmann, 0.3, true),
             specular_reflectance: Vec3::ONE,
             eta_k: None,
         }),
@@ -515,6 +605,13 @@ fn never_nan_at_grazing_or_degenerate_input() {
         rough_with(MicrofacetType::Beckmann, 2.0, true, None),
         blend(0.0, diffuse(1.0), rough(0.5, None)),
         blend(1.0, diffuse(1.0), Bsdf::Dielectric(Dielectric { eta: 1.5 })),
+        rough_glass(MicrofacetType::Ggx, 0.0, 0.0, true, 1.5),
+        rough_glass(MicrofacetType::Beckmann, 1e-7, 0.3, true, 1.0 / 1.33),
+        rough_glass(MicrofacetType::Beckmann, 2.0, 2.0, false, 1.5),
+        rough_glass(MicrofacetType::Ggx, 0.2, 0.2, true, 1.0),
+        blend(0.5, diffuse(0.5), rough_glass(MicrofacetType::Ggx, 0.1, 0.1, true, 1.5)),
+        rough_plastic(MicrofacetType::Beckmann, 1e-7, true),
+        rough_plastic(MicrofacetType::Ggx, 3.0, false),
     ]);
     let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
     let mut wos = Vec::new();
@@ -574,6 +671,9 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
         blend(0.3, diffuse(0.5), mirror()),
         mirror(),
         Bsdf::Dielectric(Dielectric { eta: 1.5 }),
+        rough_glass(MicrofacetType::Ggx, 0.2, 0.2, true, 1.5),
+        rough_glass(MicrofacetType::Beckmann, 0.1, 0.4, false, 1.33),
+        rough_plastic(MicrofacetType::Ggx, 0.2, true),
     ];
     let mut s = Sampler::for_key(11, 0, 0);
     for bsdf in &cases {
@@ -593,11 +693,7 @@ fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
     let one_sided = [
         Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(0.7) }),
         Bsdf::RoughConductor(RoughConductor {
-            distribution: Microfacet {
-                kind: MicrofacetType::Beckmann,
-                alpha: 0.3,
-                sample_visible: true,
-            },
+            distribution: Microfacet::isotropic(MicrofacetType::Beckmann, 0.3, true),
             specular_reflectance: Vec3::ONE,
             eta_k: Some((AU_ETA, AU_K)),
         }),

@@ -906,7 +906,7 @@ mod tests {
         // its peak. Seen along the normal the peak is where the photons arrive from: P = 1. Seen from 60°
         // off the normal, f toward +z is the lobe's tail, far below its peak, and so is P.
         let glossy = Bsdf::RoughConductor(RoughConductor {
-            distribution: crate::bsdf::Microfacet { kind: crate::bsdf::MicrofacetType::Ggx, alpha: 0.01, sample_visible: true },
+            distribution: crate::bsdf::Microfacet::isotropic(crate::bsdf::MicrofacetType::Ggx, 0.01, true),
             specular_reflectance: Vec3::ONE,
             eta_k: None,
         });

@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 
 use super::Scene;
-use crate::bsdf::{Bsdf, ParamMut};
+use crate::bsdf::Bsdf;
 use crate::accel::Hit;
 use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
@@ -99,10 +99,7 @@ impl Scene {
         let uv = self.tex_uv(si);
         material.bsdf_at(|texture, param| {
             let t = &self.textures[texture as usize];
-            match param {
-                ParamMut::Rgb(v) => *v = t.eval_rgb(uv),
-                ParamMut::Float(x) => *x = t.eval_1(uv),
-            }
+            param.set(|| t.eval_rgb(uv), || t.eval_1(uv));
         })
     }
 

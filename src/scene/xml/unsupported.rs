@@ -21,7 +21,7 @@ use super::super::plugins::{self, Role};
 pub struct Unsupported {
     pub file: PathBuf,
     pub line: usize,
-    /// The element, as errors name it (`<bsdf type="roughplastic">`).
+    /// The element, as errors name it (`<bsdf type="principled">`).
     pub element: String,
     /// What is unsupported, and what Mitsuba would do with it.
     pub message: String,
@@ -39,8 +39,6 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "roughplastic", "a diffuse base under a rough dielectric coating", LATER_MATERIALS),
-    ("bsdf", "roughdielectric", "rough glass: microfacet reflection and transmission", LATER_MATERIALS),
     ("bsdf", "mask", "an opacity mask cutting holes in the nested BSDF", LATER_MATERIALS),
     ("bsdf", "bumpmap", "the nested BSDF with normals perturbed by a height texture", LATER_MATERIALS),
     ("bsdf", "normalmap", "the nested BSDF with normals from a normal-map texture", LATER_MATERIALS),
