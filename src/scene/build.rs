@@ -168,10 +168,12 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     };
     let mut tri_material = Vec::new();
     let mut tri_flat = Vec::new();
+    let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
     for plan in &shape_plans {
         let placed = load_and_place(&ctx, plan)?;
         let base = mesh.triangle_count();
+        shape_first_triangle.push(base as u32);
         let n = placed.triangle_count();
         if (base + n) as u64 > u64::from(u32::MAX) {
             return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
@@ -228,6 +230,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         mesh,
         tri_material,
         tri_flat,
+        shape_first_triangle,
         bsdfs,
         lights,
         camera,
@@ -273,7 +276,12 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
             }
         }
     };
+    let aovs = match &d.aovs {
+        Some(spec) => check::aovs(spec).map_err(|e| ctx.key_error("integrator.aovs", e.0))?,
+        None => super::aov::Aovs::default(),
+    };
     Ok(IntegratorSettings {
+        aovs,
         max_depth: d.max_depth,
         rr_depth: d.rr_depth,
         samples_per_pixel: d.samples_per_pixel,

@@ -104,6 +104,7 @@
 //! A shape lying more than 2¹⁴ times its own size from the origin is refused (`precision`: f32 coordinates
 //! cannot hold it there; the error states the limit).
 
+pub mod aov;
 mod build;
 mod clip;
 mod convert;
@@ -155,6 +156,9 @@ pub struct Scene {
     /// `shading`, with the triangle's geometric normal), read by [`Scene::interaction`]; made at load, from
     /// the fields above.
     shading: Vec<TriangleShading>,
+    /// Per shape of the scene file, in its order, the index of its first triangle (ascending): a
+    /// triangle's shape for the `shape_index` and `prim_index` AOVs ([`Scene::shape_of`]).
+    pub shape_first_triangle: Vec<u32>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once).
     pub bsdfs: Vec<Bsdf>,
     pub lights: LightSet,
@@ -281,6 +285,14 @@ impl Scene {
     #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count()
+    }
+
+    /// Triangle `prim`'s shape (its index in the scene file's order, from 0) and its index within that
+    /// shape (Mitsuba's `prim_index`).
+    #[must_use]
+    pub fn shape_of(&self, prim: u32) -> (u32, u32) {
+        let shape = self.shape_first_triangle.partition_point(|&first| first <= prim).saturating_sub(1);
+        (shape as u32, prim - self.shape_first_triangle.get(shape).copied().unwrap_or(0))
     }
 }
 
