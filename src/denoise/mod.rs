@@ -38,7 +38,7 @@ pub enum DenoiseError {
          install a package that provides {LIBRARY}, or point --oidn or {ENV_VAR} at the library or its directory"
     )]
     NotFound { tried: String },
-    #[error("{path}: cannot load Intel Open Image Denoise: {reason}")]
+    #[error("{path}: cannot load Intel Open Image Denoise ({reason}); run scripts/setup-oidn in the caustica checkout, or point --oidn or {ENV_VAR} at a copy of {LIBRARY}")]
     Load { path: PathBuf, reason: String },
     #[error("Intel Open Image Denoise failed ({stage}): {message}")]
     Oidn { stage: &'static str, message: String },
