@@ -1,6 +1,7 @@
 # The two set-up commands of the README:
 #   make demo   installs what is missing, builds, renders the demo scene with mis and pt/pm/mis side by side to out/
-#   make test   installs what is missing, runs every test (Embree 3 system library, then Embree 4)
+#   make test   installs what is missing (OIDN for the denoising test: scripts/setup-oidn), runs every test
+#               (Embree 3 system library, then Embree 4)
 CARGO ?= cargo
 BIN := target/release/caustica
 
@@ -25,6 +26,7 @@ demo: build
 # `--tests`: the library's unit tests and tests/suite/ (examples are compiled by the check below instead of
 # being linked with LTO here).
 test: setup
+	scripts/setup-oidn
 	$(CARGO) test --release --tests
 	$(CARGO) check --release --no-default-features --all-targets
 	EMBREE4_TARGET_DIR=$(CURDIR)/target scripts/test-embree4

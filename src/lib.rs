@@ -6,7 +6,7 @@
 //! - [`math`]: glam re-exports, [`math::Ray`], [`math::Aabb`], [`math::Frame`], the one ray-origin offset rule.
 //! - [`mesh`]: triangle meshes and their loaders (OBJ, PLY, gzipped PLY).
 //! - [`accel`]: the `Accel` interface, the brute-force oracle, the pure-Rust BVH and (feature `embree`)
-//!   the Embree backend — the only module allowed `unsafe`.
+//!   the Embree backend — with [`denoise`]'s FFI to Open Image Denoise, the only code allowed `unsafe`.
 //! - [`sampler`]: deterministic random streams keyed by (seed, pixel, sample, dimension).
 #![deny(unsafe_code)]
 
@@ -15,6 +15,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
+pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod integrator;

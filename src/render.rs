@@ -22,6 +22,7 @@
 //! passes still advance the sample index, so every (pass, tile) it renders is the one the whole render
 //! would, and the film's exact sums make the parts add up to the whole bit for bit.
 
+pub mod aov;
 pub mod memory;
 pub mod part;
 pub mod round;
@@ -59,6 +60,9 @@ pub struct RenderSettings {
     pub max_radius: f32,
     /// A round's intended length in seconds ([`round`]).
     pub round_seconds: f64,
+    /// The AOVs written beside the image (`scene::aov`); the film must have their channels
+    /// ([`Film::with_aov_channels`], [`RenderSettings::film`]).
+    pub aovs: crate::scene::aov::Aovs,
 }
 
 /// Exponent `a` of the progressive area schedule (method.md §6): Knaus & Zwicker's α = 2/3, which
@@ -98,7 +102,13 @@ impl RenderSettings {
             knn: caus.knn,
             max_radius: caus.max_radius.unwrap_or_else(|| defaults::max_radius(scene.bounds.bounding_sphere().1)),
             round_seconds: defaults::ROUND_SECONDS,
+            aovs: integ.aovs.clone(),
         }
+    }
+
+    /// The film this render fills: the camera's, with a channel per AOV value.
+    pub fn film(&self, camera: &crate::camera::Camera) -> Result<Film, FilmError> {
+        Ok(Film::for_camera(camera)?.with_aov_channels(self.aovs.channel_count()))
     }
 
     /// Samples per pixel of a full pass: `pass_spp`, at least 1 and (without a time limit) at most `spp`.
@@ -295,6 +305,10 @@ pub fn render_share(
     on_tile: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderPhaseStats, RenderError> {
     let start = Instant::now();
+    if film.aov_channels() != settings.aovs.channel_count() {
+        return Err(FilmError::AovMismatch { film: film.aov_channels(), other: settings.aovs.channel_count() }.into());
+    }
+    let aov_tracer = aov::AovTracer::new(scene, accel, &settings.aovs);
     let mut stats = RenderPhaseStats::default();
     let mut q1_range = Q1Range::default();
     let photons_needed = photon_pass_needed(scene, settings.estimator);
@@ -353,7 +367,7 @@ pub fn render_share(
         let caustics = CausticEstimator::new(settings.estimator, map.as_ref(), settings.knn as usize, settings.max_radius, scene.bounds.bounding_sphere().1)
             .with_area_scale(area_scale_for_pass(pass));
         let tracer = PathTracer::new(scene, accel, caustics, this_pass as f32);
-        let ctx = RoundContext { scene, tracer: &tracer, seed: settings.seed, width, pass_start: spp_done };
+        let ctx = RoundContext { scene, tracer: &tracer, aovs: aov_tracer.as_ref(), seed: settings.seed, width, pass_start: spp_done };
         // With a time limit the eye pass stops at the limit, from the second pass on (the first always
         // completes, so that every pixel has samples): tiles not started by then are left out.
         let deadline = match settings.time_limit {
@@ -494,7 +508,7 @@ pub enum RenderImageError {
 /// progress, no cancellation: the one-call form used by tests and reports.
 pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings: &RenderSettings) -> Result<RenderedImage, RenderImageError> {
     let accel = crate::accel::build_accel(backend, &scene.mesh.positions, &scene.mesh.indices)?;
-    let mut film = Film::for_camera(&scene.camera)?;
+    let mut film = settings.film(&scene.camera)?;
     let cancel = AtomicBool::new(false);
     let t = Instant::now();
     let stats = render(scene, accel.as_ref(), settings, &mut film, &cancel, |_, _| {}, &|_| {})?;

@@ -47,6 +47,10 @@ fn build(mut p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 }
 
 impl Model for Blend {
+    /// The blend of its components' (Mitsuba's `BlendBSDF::eval_diffuse_reflectance`).
+    fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
+        self.bsdf_0.diffuse_reflectance(wo) * (1.0 - self.weight) + self.bsdf_1.diffuse_reflectance(wo) * self.weight
+    }
     #[inline]
     fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         f(self.weight, &self.bsdf_0, &self.bsdf_1, wo, wi, mode)

@@ -30,6 +30,10 @@ fn build(p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 }
 
 impl Model for Diffuse {
+    /// The reflectance on either side (Mitsuba's `SmoothDiffuse::eval_diffuse_reflectance`).
+    fn diffuse_reflectance(&self, _wo: Vec3) -> Vec3 {
+        self.reflectance
+    }
     #[inline]
     fn f(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> Vec3 {
         f(self.reflectance, wo, wi)

@@ -107,6 +107,13 @@ pub(crate) trait Model {
     /// Recomputes what the type derives from its parameters at construction, after the material layer set
     /// some of them; by default nothing.
     fn params_changed(&mut self) {}
+    /// The diffuse reflectance seen from `wo` (the `albedo` AOV; Mitsuba 3's
+    /// `BSDF::eval_diffuse_reflectance`, src/render/bsdf.cpp): by default Mitsuba's rule, `π·f(wo, n)` —
+    /// the BSDF lit along the normal, which is the reflectance of a Lambertian lobe and 0 for delta
+    /// lobes; types with a diffuse parameter return it, as Mitsuba's `diffuse` and `plastic` do.
+    fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
+        self.f(wo, Vec3::Z, TransportMode::Radiance) * std::f32::consts::PI
+    }
 }
 
 /// A BSDF type as the scene files name it: its name, keys (nested BSDFs among them) and constructor.
@@ -174,6 +181,9 @@ macro_rules! bsdf_types {
             }
             fn params_changed(&mut self) {
                 match self { $(Bsdf::$variant(m) => m.params_changed(),)* }
+            }
+            fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
+                match self { $(Bsdf::$variant(m) => m.diffuse_reflectance(wo),)* }
             }
         }
     };
@@ -321,6 +331,16 @@ impl Bsdf {
     /// [`Bsdf::visit_params`] (nested bsdfs first).
     pub fn params_changed(&mut self) {
         Model::params_changed(self);
+    }
+
+    /// The diffuse reflectance seen from `wo_local` ([`Model::diffuse_reflectance`]; 0 for an unusable `wo`):
+    /// the `albedo` AOV the denoiser reads.
+    #[must_use]
+    pub fn diffuse_reflectance(&self, wo_local: Vec3) -> Vec3 {
+        if !valid_wo(wo_local) {
+            return Vec3::ZERO;
+        }
+        Model::diffuse_reflectance(self, wo_local)
     }
 }
 

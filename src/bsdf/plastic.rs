@@ -127,6 +127,10 @@ impl Plastic {
 }
 
 impl Model for Plastic {
+    /// Its diffuse layer's reflectance (Mitsuba's `SmoothPlastic::eval_diffuse_reflectance`).
+    fn diffuse_reflectance(&self, _wo: Vec3) -> Vec3 {
+        self.diffuse_reflectance
+    }
     #[inline]
     fn f_pdf(&self, wo: Vec3, wi: Vec3, _: TransportMode) -> (Vec3, f32) {
         if !(wo.z > 0.0 && wi.z > 0.0) {

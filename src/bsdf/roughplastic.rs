@@ -154,6 +154,10 @@ impl Model for RoughPlastic {
     fn has_non_delta(&self) -> bool {
         self.diffuse_reflectance.max_element() > 0.0 || self.specular_reflectance.max_element() > 0.0
     }
+    /// Mitsuba's `eval_diffuse_reflectance` of roughplastic: its diffuse reflectance.
+    fn diffuse_reflectance(&self, _wo: Vec3) -> Vec3 {
+        self.diffuse_reflectance
+    }
     /// Mitsuba's roughplastic takes its reflectances as textures, its roughness as a number.
     fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
         v.param("diffuse_reflectance", ParamMut::Rgb(&mut self.diffuse_reflectance));

@@ -725,3 +725,26 @@ fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
         }
     }
 }
+
+/// The `albedo` AOV (Mitsuba's `eval_diffuse_reflectance`): a diffuse or plastic surface's diffuse
+/// reflectance on either side of a two-sided BSDF, 0 for a mirror, π·f(wo, n) for a rough conductor, the
+/// blend of a blend's components, 0 for a one-sided BSDF seen from below.
+#[test]
+fn diffuse_reflectance_follows_mitsubas_eval_diffuse_reflectance() {
+    let (front, back) = (wo_at(30.0), -wo_at(30.0));
+    let grey = Vec3::splat(0.4);
+    assert_eq!(diffuse(0.4).diffuse_reflectance(front), grey);
+    assert_eq!(diffuse(0.4).diffuse_reflectance(back), grey);
+    assert_eq!(mirror().diffuse_reflectance(front), Vec3::ZERO);
+    assert_eq!(plastic().diffuse_reflectance(front), Vec3::new(0.8, 0.5, 0.2));
+    let r = rough(0.3, None);
+    let expected = r.f(front, Vec3::Z, TransportMode::Radiance) * std::f32::consts::PI;
+    assert!(expected.max_element() > 0.0);
+    assert_eq!(r.diffuse_reflectance(front), expected);
+    assert_eq!(r.diffuse_reflectance(back), expected, "two-sided: the front's");
+    let b = blend(0.25, diffuse(0.4), mirror());
+    assert!((b.diffuse_reflectance(front) - grey * 0.75).abs().max_element() < 1e-7);
+    let one_sided = Bsdf::RoughConductor(RoughConductor { distribution: Microfacet::isotropic(MicrofacetType::Ggx, 0.3, true), specular_reflectance: Vec3::ONE, eta_k: None });
+    assert_eq!(one_sided.diffuse_reflectance(back), Vec3::ZERO);
+    assert_eq!(diffuse(0.4).diffuse_reflectance(Vec3::new(1.0, 0.0, 0.0)), Vec3::ZERO, "a tangent wo scatters nothing");
+}

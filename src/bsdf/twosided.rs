@@ -34,6 +34,10 @@ fn build(mut p: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 }
 
 impl Model for TwoSided {
+    /// The inner BSDF's, seen from the front (Mitsuba's `TwoSidedBRDF::eval_diffuse_reflectance`).
+    fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
+        self.0.diffuse_reflectance(if wo.z < 0.0 { flip_z(wo) } else { wo })
+    }
     #[inline]
     fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         if wo.z < 0.0 {

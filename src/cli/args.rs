@@ -330,3 +330,8 @@ pub fn check_image_extension(flag: &str, path: &std::path::Path, ext: &str, hint
 pub fn scene_stem(scene: &std::path::Path) -> String {
     scene.file_stem().map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned())
 }
+
+/// `--aov`: the library's reading of an AOV list (`crate::scene::aov::Aovs::parse`).
+pub fn aovs(s: &str) -> Result<crate::scene::aov::Aovs, String> {
+    check::aovs(s).map_err(|e| e.0)
+}

@@ -116,6 +116,8 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
     if let Some(s) = args.run.seed {
         base.seed = s;
     }
+    // Error curves of the image: the scene's AOVs (`integrator.aovs`) are not written here, so not traced.
+    base.aovs = crate::scene::aov::Aovs::default();
     base
 }
 

@@ -19,7 +19,10 @@ use super::progress::Progress;
 use super::Outcome;
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::io::{write_bytes_atomic, write_json_atomic};
+use crate::denoise::{denoised_path, Denoiser};
+use crate::film::io::write_exr_channels;
 use crate::film::{write_exr, write_png, Film, Rect};
+use crate::scene::aov::Aovs;
 use crate::photon::PhotonBudget;
 use crate::render::part::{self, Part, PartInfo};
 use crate::render::{render_share, RenderPhaseStats, RenderSettings, Share, TILE_SIZE};
@@ -91,6 +94,21 @@ pub struct RenderArgs {
     /// `62%`, exclusive ends). Repeatable.
     #[arg(long = "region", requires = "reference")]
     pub regions: Vec<String>,
+    /// AOVs written as extra channels of the EXR, first-hit values filtered like the image: types
+    /// (albedo, normal, depth, position, uv, geo_normal, sh_normal, prim_index, shape_index,
+    /// material_index) or Mitsuba's `name:type` pairs (`dd.y:depth,nn:sh_normal`: channels `dd.y.T`,
+    /// `nn.X`…) [default: the scene's `integrator.aovs`, Mitsuba's `aov` integrator].
+    #[arg(long, value_name = "LIST", value_parser = args::aovs)]
+    pub aov: Option<crate::scene::aov::Aovs>,
+    /// Also write the image denoised by Intel Open Image Denoise to `<output>.denoised.exr`, with the albedo
+    /// and normal AOVs (added to --aov when missing); the raw image is written as always. Needs OIDN 2:
+    /// run scripts/setup-oidn, or see --oidn.
+    #[arg(long)]
+    pub denoise: bool,
+    /// Open Image Denoise's library (`libOpenImageDenoise.so.2`) or its directory, for --denoise
+    /// [default: $CAUSTICA_OIDN, else build/oidn/lib of the checkout (scripts/setup-oidn), else the system's].
+    #[arg(long, value_name = "PATH", requires = "denoise")]
+    pub oidn: Option<PathBuf>,
     /// Render only part I (0-based) of N of the image (a share of its passes, or of its tiles when it has
     /// fewer passes than N) into a partial film at -o, for `caustica merge`. Needs a fixed sample count.
     #[arg(long, value_name = "I/N", value_parser = |s: &str| s.parse::<Part>())]
@@ -157,6 +175,19 @@ pub struct RenderStatsJson {
     /// With --part: which part, its share and the render's fingerprint.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub part: Option<PartJson>,
+    /// The AOV channels written beside R, G, B (`--aov`, `integrator.aovs`); absent without.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub aov_channels: Vec<String>,
+    /// With --denoise: the denoised image and the seconds OIDN took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoised: Option<DenoisedJson>,
+}
+
+/// The `denoised` key of the stats JSON.
+#[derive(Debug, Serialize)]
+pub struct DenoisedJson {
+    pub path: String,
+    pub seconds: f64,
 }
 
 /// The `part` key of the stats JSON.
@@ -234,7 +265,12 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     if !args.quiet {
         print_notes(&scene);
     }
-    let settings = settings(args, &scene);
+    let settings = settings(args, &scene)?;
+    if args.part.is_some() && !settings.aovs.is_empty() {
+        bail!("--part: AOV channels (--aov, --denoise, or the scene's integrator.aovs / Mitsuba's aov integrator) are not kept in partial films; render the AOVs in one process");
+    }
+    // OIDN is loaded before anything is rendered: a missing library is said at once, not after the render.
+    let denoiser = if args.denoise { Some(Denoiser::load(args.oidn.as_deref())?) } else { None };
     args.run.check_memory(&scene, &settings)?;
     let tracker = load_reference(args, &scene)?;
     let backend = args.run.backend();
@@ -250,7 +286,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     // (No progress line where the stats JSON goes to standard output.)
     let stats_to_stdout = args.stats.as_deref().is_some_and(is_stdout);
     let progress = Progress::new(!args.quiet && !stats_to_stdout && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
-    let mut film = Film::for_camera(&scene.camera)?;
+    let mut film = settings.film(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,
         None => Share::All,
@@ -271,7 +307,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
                     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
                     let phases = RenderPhaseStats { partial: true, ..info.phases.clone() };
                     let stats = stats_json(args, scene_path, &scene, &settings, &phases, film, &pass_log, backend, threads, timing);
-                    c.write(args, &output, film, &stats);
+                    c.write(args, &output, film, &settings.aovs, &stats);
                 }
             },
             &|samples| {
@@ -286,7 +322,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let part_json = match args.part {
         Some(p) => Some(write_part(scene_path, &scene, &settings, &phases, &film, share, p, backend, &output, t_start)?),
         None => {
-            write_exr(&output, &image)?;
+            write_image(&output, &image, &film, &settings.aovs)?;
             None
         }
     };
@@ -295,6 +331,16 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     }
     // A later output that fails does not take the first with it: the error says what was written.
     let written = |list: &[&Path]| list.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ");
+    let denoised = match &denoiser {
+        Some(d) => {
+            let t = Instant::now();
+            let path = denoised_path(&output);
+            let image = pool.install(|| d.denoise_film(&film, &settings.aovs, threads)).with_context(|| format!("--denoise (written: {})", written(&[&output])))?;
+            write_exr(&path, &image).with_context(|| format!("--denoise (written: {})", written(&[&output])))?;
+            Some(DenoisedJson { path: path.display().to_string(), seconds: t.elapsed().as_secs_f64() })
+        }
+        None => None,
+    };
     if let Some(png) = &args.png {
         write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)
             .with_context(|| format!("--png {} (written: {})", png.display(), written(&[&output])))?;
@@ -303,6 +349,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
     let mut stats = stats_json(args, scene_path, &scene, &settings, &phases, &film, &pass_log, backend, threads, timing);
     stats.part = part_json;
+    stats.denoised = denoised;
     if let Some(p) = &args.stats {
         let mut done: Vec<&Path> = vec![&output];
         done.extend(args.png.as_deref());
@@ -312,6 +359,12 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
         print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     }
     Ok(outcome(phases.partial))
+}
+
+/// Writes the image and its AOV channels (`aovs`, the film's) to `path`, atomically.
+fn write_image(path: &Path, image: &crate::film::Image, film: &Film, aovs: &Aovs) -> Result<(), crate::film::ImageError> {
+    let extra: Vec<(String, Vec<f32>)> = aovs.channel_names().zip(film.aov_planes()).collect();
+    write_exr_channels(path, image, &extra)
 }
 
 /// Photons traced to time a large photon pass before it starts ([`warn_long_photon_pass`]).
@@ -418,6 +471,14 @@ fn check_outputs(args: &RenderArgs) -> anyhow::Result<()> {
     }
     if let Some(o) = &args.output {
         args::check_image_extension("-o/--output", o, "exr", " (for a PNG preview, add --png FILE.png)")?;
+        if args.denoise {
+            let d = denoised_path(o);
+            args::check_output("--denoise", &d)?;
+            args::check_not_input("--denoise", &d, &inputs)?;
+        }
+    }
+    if args.part.is_some() && (args.aov.is_some() || args.denoise) {
+        bail!("--part: AOV channels (--aov, --denoise) are not kept in partial films; render the AOVs in one process");
     }
     if let Some(p) = &args.png {
         args::check_image_extension("--png", p, "png", "")?;
@@ -446,7 +507,7 @@ fn crop_window(scene: &Scene) -> Rect {
 }
 
 /// The scene file's settings with the command line's over them.
-fn settings(args: &RenderArgs, scene: &Scene) -> RenderSettings {
+fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
     let mut settings = RenderSettings::from_scene(scene);
     if let Some(spp) = args.spp {
         settings.spp = spp;
@@ -463,7 +524,13 @@ fn settings(args: &RenderArgs, scene: &Scene) -> RenderSettings {
         settings.estimator = estimator;
     }
     args.photon.apply(&mut settings);
-    settings
+    if let Some(aovs) = &args.aov {
+        settings.aovs = aovs.clone();
+    }
+    if args.denoise {
+        settings.aovs = std::mem::take(&mut settings.aovs).with_kinds(&Denoiser::AOVS).map_err(|e| anyhow::anyhow!("--denoise adds the AOVs albedo and sh_normal: {e}"))?;
+    }
+    Ok(settings)
 }
 
 /// `--reference` read and checked against the crop window's size, before anything is rendered.
@@ -620,9 +687,9 @@ impl Checkpoint {
     /// Writes the image as the film holds it now (the whole frame at `stats.spp`), atomically: the EXR, then
     /// the PNG and the stats where asked for, so that a reader finds each file whole, the stats last. The
     /// stats say `partial: true` (the render is not done).
-    fn write(&mut self, args: &RenderArgs, output: &Path, film: &Film, stats: &RenderStatsJson) {
+    fn write(&mut self, args: &RenderArgs, output: &Path, film: &Film, aovs: &Aovs, stats: &RenderStatsJson) {
         let image = film.image();
-        let result = write_exr(output, &image)
+        let result = write_image(output, &image, film, aovs)
             .map_err(anyhow::Error::new)
             .and_then(|()| args.png.as_ref().map_or(Ok(()), |png| write_png(png, &image, args.png_args.exposure, args.png_args.tonemap).map_err(anyhow::Error::new)))
             .and_then(|()| args.stats.as_ref().filter(|p| !is_stdout(p)).map_or(Ok(()), |p| write_json_atomic(p, stats).map_err(anyhow::Error::new)));
@@ -699,6 +766,8 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
             _ => None,
         },
         part: None,
+        aov_channels: settings.aovs.channel_names().collect(),
+        denoised: None,
     }
 }
 

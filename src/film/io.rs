@@ -337,6 +337,34 @@ pub fn write_exr(path: impl AsRef<Path>, image: &Image) -> Result<(), ImageError
     })
 }
 
+/// [`write_exr`] with extra float32 channels `extra` (name, one value per pixel in the image's order): the
+/// AOVs (`scene::aov`), as Mitsuba writes them, beside `R`, `G`, `B` in one layer. The `R`, `G`, `B`
+/// values are those `write_exr` writes.
+pub fn write_exr_channels(path: impl AsRef<Path>, image: &Image, extra: &[(String, Vec<f32>)]) -> Result<(), ImageError> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, Layer, LayerAttributes};
+    let path = path.as_ref();
+    if extra.is_empty() {
+        return write_exr(path, image);
+    }
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    if w == 0 || h == 0 || extra.iter().any(|(_, v)| v.len() != w * h) {
+        return Err(ImageError::Size { path: path.to_owned(), width: w, height: h });
+    }
+    let pixels = image.pixels();
+    let mut channels: Vec<AnyChannel<FlatSamples>> = ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| AnyChannel::new(*name, FlatSamples::F32(pixels.iter().map(|p| p[c]).collect())))
+        .collect();
+    channels.extend(extra.iter().map(|(name, values)| AnyChannel::new(name.as_str(), FlatSamples::F32(values.clone()))));
+    let layer = Layer::new((w, h), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
+    let exr_image = exr::prelude::Image::from_layer(layer);
+    write_atomic(path, |writer| exr_image.write().to_buffered(writer)).map_err(|source| match source {
+        exr::error::Error::Io(source) => ImageError::Io { path: path.to_owned(), source },
+        source => ImageError::Exr { path: path.to_owned(), source },
+    })
+}
+
 /// Writes `image` as an 8-bit sRGB PNG, atomically: each channel is multiplied by `2^exposure_stops`,
 /// mapped by `tonemap`, encoded with the sRGB OETF and rounded (no dithering). NaN channels become 0.
 pub fn write_png(path: impl AsRef<Path>, image: &Image, exposure_stops: f32, tonemap: Tonemap) -> Result<(), ImageError> {

@@ -27,6 +27,12 @@
 //!   [`Film::luminance_variance`] is the per-sample variance, `n` times that (`s²` for the box filter).
 //!   Under a filter neighbouring pixels share samples, so their errors are correlated.
 //! - [`Film::image`] gives the per-pixel value as an [`Image`]; [`io`] reads and writes EXR/PNG atomically.
+//! - AOV channels ([`Film::with_aov_channels`], `scene::aov`): a sample may carry values besides its
+//!   radiance ([`TileBuffer::add_at_aov`]), splatted with the same filter weights as the radiance, so that
+//!   a pixel's AOV is `Σ w·a / Σ w` ([`Film::aov_planes`]; Mitsuba's film splats AOVs with the image's
+//!   weights). Their sums are plain f64 (a statistic of the visible surfaces, not the image): the RGB sums
+//!   and every RGB value are the same bits with or without them, and a render merged in other groupings
+//!   (rounds) may differ in the AOVs' last bits.
 
 pub mod exact;
 pub mod filter;
@@ -66,6 +72,8 @@ pub enum FilmError {
     FilterMismatch { film: PixelFilter, other: PixelFilter },
     #[error("reconstruction filter: {0}")]
     Filter(#[from] filter::FilterError),
+    #[error("cannot add samples with {other} AOV channels to a film with {film}")]
+    AovMismatch { film: usize, other: usize },
 }
 
 /// Samples of one pixel in a [`TileBuffer`]: plain f64 sums in the order the samples were added.
@@ -264,6 +272,10 @@ pub struct TileBuffer {
     pixels: Vec<SampleSum>,
     /// Over `region`; empty for the box filter.
     weights: Vec<WeightSum>,
+    /// AOV values per sample (module docs).
+    aov_channels: usize,
+    /// Over `region`, `aov_channels` per pixel: Σ w·a.
+    aovs: Vec<f64>,
     non_finite: NonFinite,
 }
 
@@ -288,8 +300,14 @@ impl TileBuffer {
     /// tile: [`Film::merge_tile`] refuses it otherwise).
     #[must_use]
     pub fn with_filter(tile: Tile, filter: PixelFilter, crop: Rect) -> Self {
+        Self::with_aov_channels(tile, filter, crop, 0)
+    }
+
+    /// [`TileBuffer::with_filter`] for samples that carry `aov_channels` AOV values.
+    #[must_use]
+    pub fn with_aov_channels(tile: Tile, filter: PixelFilter, crop: Rect, aov_channels: usize) -> Self {
         let table = filter::FilterTable::new(&filter);
-        let mut b = Self { tile, filter, table, crop, region: tile, pixels: Vec::new(), weights: Vec::new(), non_finite: NonFinite::default() };
+        let mut b = Self { tile, filter, table, crop, region: tile, pixels: Vec::new(), weights: Vec::new(), aov_channels, aovs: Vec::new(), non_finite: NonFinite::default() };
         b.reset(tile);
         b
     }
@@ -311,6 +329,8 @@ impl TileBuffer {
         if !self.filter.is_box() {
             self.weights.resize(n, WeightSum::default());
         }
+        self.aovs.clear();
+        self.aovs.resize(n * self.aov_channels, 0.0);
         self.non_finite = NonFinite::default();
     }
 
@@ -340,12 +360,34 @@ impl TileBuffer {
                 self.non_finite.record(kind);
             }
         } else if self.tile.contains(x, y) {
-            self.splat(x, y, offset, rgb);
+            self.splat::<false>(x, y, offset, rgb, &[]);
         }
     }
 
-    /// The wide filter's splat (see [`TileBuffer::add_at`]).
-    fn splat(&mut self, x: u32, y: u32, offset: Vec2, rgb: Vec3) {
+    /// [`TileBuffer::add_at`] of a sample that carries the AOV values `aov` (one per AOV channel of the
+    /// buffer; module docs): they go to the same pixels with the same weights. The radiance is added
+    /// exactly as `add_at` adds it.
+    #[inline]
+    pub fn add_at_aov(&mut self, x: u32, y: u32, offset: Vec2, rgb: Vec3, aov: &[f32]) {
+        debug_assert!(self.tile.contains(x, y), "sample at ({x}, {y}) outside tile {:?}", self.tile);
+        debug_assert_eq!(aov.len(), self.aov_channels, "one value per AOV channel");
+        let n = self.aov_channels;
+        if self.filter.is_box() {
+            if let Some(i) = self.region.index(x, y) {
+                let kind = self.pixels[i].add(rgb);
+                self.non_finite.record(kind);
+                for (s, &a) in self.aovs[i * n..(i + 1) * n].iter_mut().zip(aov) {
+                    *s += f64::from(a);
+                }
+            }
+        } else if self.tile.contains(x, y) {
+            self.splat::<true>(x, y, offset, rgb, aov);
+        }
+    }
+
+    /// The wide filter's splat (see [`TileBuffer::add_at`]), with the AOV values `aov` when `AOV`.
+    #[inline]
+    fn splat<const AOV: bool>(&mut self, x: u32, y: u32, offset: Vec2, rgb: Vec3, aov: &[f32]) {
         let sample = finite_sample(rgb);
         // The pixel the sample was taken in: its count and Σ Y².
         let own = self.region.index(x, y).unwrap_or_default();
@@ -394,6 +436,12 @@ impl TileBuffer {
                     p[1] += f64::from(c.y);
                     p[2] += f64::from(c.z);
                 }
+                if AOV {
+                    let n = self.aov_channels;
+                    for (s, &a) in self.aovs[k * n..(k + 1) * n].iter_mut().zip(aov) {
+                        *s += f64::from(w) * f64::from(a);
+                    }
+                }
             }
         }
     }
@@ -421,6 +469,9 @@ pub struct Film {
     pixels: Vec<PixelSum>,
     /// One per pixel with a wide filter; empty with the box filter.
     weights: Vec<PixelWeight>,
+    /// AOV channels per pixel (module docs) and their sums Σ w·a, `aov_channels` per pixel.
+    aov_channels: usize,
+    aovs: Vec<f64>,
     non_finite: NonFinite,
 }
 
@@ -450,8 +501,24 @@ impl Film {
             filter,
             pixels: vec![PixelSum::default(); n],
             weights: if filter.is_box() { Vec::new() } else { vec![PixelWeight::default(); n] },
+            aov_channels: 0,
+            aovs: Vec::new(),
             non_finite: NonFinite::default(),
         })
+    }
+
+    /// The film with `n` AOV channels (module docs), empty.
+    #[must_use]
+    pub fn with_aov_channels(mut self, n: usize) -> Self {
+        self.aov_channels = n;
+        self.aovs = vec![0.0; self.crop.area() as usize * n];
+        self
+    }
+
+    /// AOV channels per pixel.
+    #[must_use]
+    pub fn aov_channels(&self) -> usize {
+        self.aov_channels
     }
 
     /// The film a camera renders into: its size, crop window and filter.
@@ -504,7 +571,7 @@ impl Film {
     /// An empty buffer for `tile`, with this film's filter (and, for a wide one, the border it splats into).
     #[must_use]
     pub fn tile_buffer(&self, tile: Tile) -> TileBuffer {
-        TileBuffer::with_filter(tile, self.filter, self.crop)
+        TileBuffer::with_aov_channels(tile, self.filter, self.crop, self.aov_channels)
     }
 
     /// Adds one sample at the centre of pixel `(x, y)` directly (single-threaded use). Samples outside the
@@ -528,9 +595,16 @@ impl Film {
         if buffer.filter != self.filter {
             return Err(FilmError::FilterMismatch { film: self.filter, other: buffer.filter });
         }
+        if buffer.aov_channels != self.aov_channels {
+            return Err(FilmError::AovMismatch { film: self.aov_channels, other: buffer.aov_channels });
+        }
         let rw = r.width() as usize;
+        let n = self.aov_channels;
         for (row, y) in (r.y0..r.y1).enumerate() {
             let start = self.crop.index(r.x0, y).unwrap_or_default();
+            for (d, s) in self.aovs[start * n..(start + rw) * n].iter_mut().zip(&buffer.aovs[row * rw * n..(row + 1) * rw * n]) {
+                *d += s;
+            }
             let src = &buffer.pixels[row * rw..(row + 1) * rw];
             for (d, s) in self.pixels[start..start + rw].iter_mut().zip(src) {
                 d.add_samples(s);
@@ -564,10 +638,18 @@ impl Film {
         if buffer.filter != self.filter || before.filter != self.filter {
             return Err(FilmError::FilterMismatch { film: self.filter, other: buffer.filter });
         }
+        if buffer.aov_channels != self.aov_channels || before.aov_channels != self.aov_channels {
+            return Err(FilmError::AovMismatch { film: self.aov_channels, other: buffer.aov_channels });
+        }
         let rw = r.width() as usize;
+        let n = self.aov_channels;
         for (row, y) in (r.y0..r.y1).enumerate() {
             let start = self.crop.index(r.x0, y).unwrap_or_default();
             let range = row * rw..(row + 1) * rw;
+            let aov_range = row * rw * n..(row + 1) * rw * n;
+            for ((d, s), b) in self.aovs[start * n..(start + rw) * n].iter_mut().zip(&buffer.aovs[aov_range.clone()]).zip(&before.aovs[aov_range]) {
+                *d += s - b;
+            }
             for ((d, s), b) in self.pixels[start..start + rw].iter_mut().zip(&buffer.pixels[range.clone()]).zip(&before.pixels[range.clone()]) {
                 d.add_samples_since(s, b);
             }
@@ -597,6 +679,12 @@ impl Film {
         if self.filter != other.filter {
             return Err(FilmError::FilterMismatch { film: self.filter, other: other.filter });
         }
+        if self.aov_channels != other.aov_channels {
+            return Err(FilmError::AovMismatch { film: self.aov_channels, other: other.aov_channels });
+        }
+        for (d, s) in self.aovs.iter_mut().zip(&other.aovs) {
+            *d += s;
+        }
         for (d, s) in self.pixels.iter_mut().zip(&other.pixels) {
             d.merge(s);
         }
@@ -614,18 +702,38 @@ impl Film {
         self.crop.index(x, y).map(|i| &self.pixels[i])
     }
 
+    /// `Σ w` of the pixel at index `i` of the crop window (its sample count with the box filter).
+    fn weight(&self, i: usize) -> f64 {
+        match self.weights.get(i) {
+            Some(pw) => pw.weight.to_f64(),
+            None => self.pixels[i].count as f64,
+        }
+    }
+
     /// The value of the pixel at index `i` of the crop window: `Σ w·rgb / Σ w` (black where `Σ w = 0`, as
     /// Mitsuba's `develop` leaves it).
     fn value(&self, i: usize) -> [f64; 3] {
-        let p = &self.pixels[i];
-        let w = match self.weights.get(i) {
-            Some(pw) => pw.weight.to_f64(),
-            None => p.count as f64,
-        };
+        let w = self.weight(i);
         if w == 0.0 {
             return [0.0; 3];
         }
-        p.rgb_f64().map(|s| s / w)
+        self.pixels[i].rgb_f64().map(|s| s / w)
+    }
+
+    /// The AOV channels' values over the crop window, one plane per channel (row-major, as [`Film::image`]):
+    /// `Σ w·a / Σ w` per pixel, 0 where `Σ w = 0`.
+    #[must_use]
+    pub fn aov_planes(&self) -> Vec<Vec<f32>> {
+        let n = self.aov_channels;
+        let pixels = self.pixels.len();
+        let mut planes = vec![Vec::with_capacity(pixels); n];
+        for i in 0..pixels {
+            let w = self.weight(i);
+            for (c, plane) in planes.iter_mut().enumerate() {
+                plane.push(if w == 0.0 { 0.0 } else { (self.aovs[i * n + c] / w) as f32 });
+            }
+        }
+        planes
     }
 
     /// The per-sample variance of the luminance in pixel `(x, y)`: with the box filter the unbiased sample

@@ -359,3 +359,69 @@ fn merging_a_buffer_after_every_round_equals_one_merge() {
         assert_ne!(rgb(&by_delta), rgb(&once), "{filter:?}: the samples never rounded in f64");
     }
 }
+
+/// AOV values ride with their samples: the RGB sums are the same bits as without AOVs, and each AOV
+/// channel is the filter-weighted mean `Σ w·a / Σ w` of its samples, merged whole or round by round.
+#[test]
+fn aov_channels_are_weighted_like_the_image_and_leave_it_unchanged() {
+    for filter in [PixelFilter::Box, PixelFilter::default(), PixelFilter::Tent { radius: 1.5 }] {
+        let crop = Rect::new(0, 0, 6, 5);
+        let plain = Film::with_filter(6, 5, crop, filter).unwrap();
+        let mut plain = plain;
+        let mut with = Film::with_filter(6, 5, crop, filter).unwrap().with_aov_channels(2);
+        let mut rounds = Film::with_filter(6, 5, crop, filter).unwrap().with_aov_channels(2);
+        let tile = Rect::new(1, 1, 5, 4);
+        let (mut a, mut b) = (plain.tile_buffer(tile), with.tile_buffer(tile));
+        let mut r = rounds.tile_buffer(tile);
+        let mut before: Option<TileBuffer> = None;
+        // A constant AOV (its mean is that constant wherever a sample reached) and one that varies.
+        let mut n = 0;
+        for y in tile.y0..tile.y1 {
+            for x in tile.x0..tile.x1 {
+                for s in 0..3 {
+                    let offset = Vec2::new(0.1 + 0.3 * s as f32, 0.7 - 0.2 * s as f32);
+                    let l = Vec3::new(0.3 + x as f32, 1.0 / (1.0 + y as f32), 0.1 * s as f32);
+                    let aov = [4.5, (x * 10 + y) as f32];
+                    a.add_at(x, y, offset, l);
+                    b.add_at_aov(x, y, offset, l, &aov);
+                    r.add_at_aov(x, y, offset, l, &aov);
+                    n += 1;
+                    if n % 7 == 0 {
+                        rounds.merge_tile_since(&r, before.as_ref()).unwrap();
+                        before = Some(r.clone());
+                    }
+                }
+            }
+        }
+        rounds.merge_tile_since(&r, before.as_ref()).unwrap();
+        plain.merge_tile(&a).unwrap();
+        with.merge_tile(&b).unwrap();
+        assert_eq!(plain.sums(), with.sums(), "{filter}: RGB sums");
+        assert_eq!(plain.weights(), with.weights(), "{filter}: weights");
+        assert_eq!(rounds.sums(), with.sums(), "{filter}: RGB sums merged by rounds");
+        let planes = with.aov_planes();
+        let image = with.image();
+        for (i, (&c, &v)) in planes[0].iter().zip(&planes[1]).enumerate() {
+            let (x, y) = (i as u32 % 6, i as u32 / 6);
+            let weight = if filter.is_box() { with.sums()[i].count as f64 } else { with.weights()[i].weight.to_f64() };
+            if weight == 0.0 {
+                assert_eq!((c, v), (0.0, 0.0), "{filter}: pixel ({x}, {y}) has no sample");
+                assert_eq!(image.get(x, y), Vec3::ZERO);
+                continue;
+            }
+            assert!((c - 4.5).abs() < 1e-5, "{filter}: constant AOV at ({x}, {y}) = {c}");
+            assert!((0.0..=50.0).contains(&v), "{filter}: a mean of the samples' values, {v}");
+        }
+        // With the box filter a pixel's AOV is the mean of its own samples.
+        if filter.is_box() {
+            assert_eq!(planes[1][6 + 2], 21.0);
+        }
+        for (p, q) in planes.iter().zip(rounds.aov_planes()) {
+            for (u, v) in p.iter().zip(&q) {
+                assert!((u - v).abs() <= 1e-5 * u.abs().max(1.0), "{filter}: rounds {v} against one merge {u}");
+            }
+        }
+        // A buffer without the film's AOV channels is refused.
+        assert!(matches!(with.merge_tile(&a), Err(FilmError::AovMismatch { film: 2, other: 0 })));
+    }
+}

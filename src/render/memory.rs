@@ -9,7 +9,8 @@
 //!   filter wider than a pixel one [`PixelWeight`] more (64 B); and what a pass keeps per pixel from one
 //!   round to the next (`render::round`): two tile buffers' sums (40 B each, 72 B more with a wide
 //!   filter; their borders are not counted), the running sum (16 B) and, with a photon pass, the search
-//!   memory ([`GatherMemory`], ~190 B);
+//!   memory ([`GatherMemory`], ~190 B); with AOVs, 8 B per AOV channel in the film and in each of the two
+//!   tile buffers;
 //! - the photon map of one pass (passes do not keep their maps): at most one stored [`Photon`] per emitted
 //!   photon with `PhotonBudget::Emitted(N)`, the target with `Stored(M)`, each 180 B: the record (32 B),
 //!   the kd-tree's packed position and decoded record (12 + 32 B), its nodes (64 B per 8 to 16
@@ -60,7 +61,9 @@ impl MemoryEstimate {
         let photons = photon_pass_needed(scene, settings.estimator).is_ok();
         let filter = scene.camera.filter();
         let rounds = 2 * TileBuffer::bytes_per_pixel(filter) + size_of::<(Vec3, u32)>() + if photons { size_of::<GatherMemory>() } else { 0 };
-        let per_pixel = size_of::<PixelSum>() + if filter.is_box() { 0 } else { size_of::<PixelWeight>() } + rounds;
+        // AOV channels: an f64 sum per channel in the film and in each of the two tile buffers.
+        let aovs = 3 * size_of::<f64>() * settings.aovs.channel_count();
+        let per_pixel = size_of::<PixelSum>() + if filter.is_box() { 0 } else { size_of::<PixelWeight>() } + rounds + aovs;
         let film = scene.camera.crop().area().saturating_mul(per_pixel as u64);
         let photon_map = if photons { photon_map_bytes(settings.photons) } else { 0 };
         Self { mesh, film, photon_map }

@@ -18,10 +18,14 @@
 //! into rounds (and to the renders before rounds existed). The schedule may depend on timing; the image
 //! does not.
 //!
+//! **AOVs** (`super::aov`): with AOVs each wave's camera rays are traced once more for them, and each
+//! sample's values go into the tile buffer with its radiance; without, nothing of it runs.
+//!
 //! **Cost.** Per pixel (pixels of the crop window, for the pass's duration): the copy of the tile buffer
 //! merged last (40 B, 72 B more with a wide filter), the running sum (16 B), and with a photon map the
 //! search memory (`GatherMemory`, ~190 B); counted by `render::memory`. Per round, one merge of every tile.
 
+use super::aov::AovTracer;
 use crate::film::{Film, Tile, TileBuffer};
 use crate::integrator::{EyePath, GatherBuffers, GatherMemory, GatherScratch, PathStats, PathTracer, Wave};
 use crate::math::{Vec2, Vec3};
@@ -95,6 +99,8 @@ impl TileState {
 pub struct RoundContext<'a> {
     pub scene: &'a Scene,
     pub tracer: &'a PathTracer<'a>,
+    /// The AOVs' tracer (`None`: no AOV; the film then has no AOV channels).
+    pub aovs: Option<&'a AovTracer<'a>>,
     pub seed: u64,
     /// The film's full width (pixel keys of the sampler).
     pub width: u64,
@@ -115,6 +121,9 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
     };
     let TileState { buf, sums, memories, .. } = state;
     let mut ps = PathStats::default();
+    // With AOVs: each wave's camera rays, their hits and values (`super::aov`), per pixel.
+    let (mut aov_rays, mut aov_hits, mut aov_values) = (Vec::new(), Vec::new(), Vec::new());
+    let aov_n = ctx.aovs.map_or(0, AovTracer::channels);
     // The gather's buffers (they carry nothing from one search to the next).
     let mut buffers = GatherBuffers::default();
     // The tile's pixels are traced one wave per sample index (`PathTracer::trace_wave`: their rays in
@@ -132,12 +141,16 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
     // (without this, a wave's searches run a pixel apart: +46 % searches on teapot-glossy). Without a
     // photon map nothing is read.
     let reads = tracer.reads_earlier_samples();
-    // A sample's radiance into the film and, where finite, into its pixel's sum.
-    let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), offset: Vec2, l: Vec3| {
+    // A sample's radiance (and AOV values, if any) into the film and, where finite, into its pixel's sum.
+    let mut record = |(x, y): (u32, u32), sum: &mut (Vec3, u32), offset: Vec2, l: Vec3, aov: &[f32]| {
         if l.is_finite() {
             *sum = (sum.0 + l, sum.1 + 1);
         }
-        buf.add_at(x, y, offset, l);
+        if aov.is_empty() {
+            buf.add_at(x, y, offset, l);
+        } else {
+            buf.add_at_aov(x, y, offset, l, aov);
+        }
     };
     let mut from = from;
     if from == ctx.pass_start {
@@ -148,8 +161,13 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
             let mut mean = Vec3::ZERO;
             for (&(x, y), sum) in pixels.iter().zip(sums.iter_mut()) {
                 let (ray, sampler, offset) = camera_sample(x, y, from);
+                if let Some(a) = ctx.aovs {
+                    aov_rays.clear();
+                    aov_rays.push(ray);
+                    ps.rays += a.trace(&aov_rays, &mut aov_hits, &mut aov_values);
+                }
                 let l = tracer.li(ray, sampler, mean, &mut ps, &mut GatherScratch::new(&mut buffers, &mut memory));
-                record((x, y), sum, offset, l);
+                record((x, y), sum, offset, l, &aov_values);
                 if sum.1 > 0 {
                     mean = sum.0;
                 }
@@ -162,6 +180,7 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
     }
     for s in from..to {
         paths.clear();
+        aov_rays.clear();
         let mut mean = Vec3::ZERO;
         paths.extend(pixels.iter().zip(sums.iter()).zip(&mut offsets).map(|((&(x, y), &(sum, n)), offset)| {
             if n > 0 {
@@ -169,11 +188,17 @@ pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to:
             }
             let (ray, sampler, j) = camera_sample(x, y, s);
             *offset = j;
+            if aov_n > 0 {
+                aov_rays.push(ray);
+            }
             EyePath::new(ray, sampler, mean)
         }));
+        if let Some(a) = ctx.aovs {
+            ps.rays += a.trace(&aov_rays, &mut aov_hits, &mut aov_values);
+        }
         tracer.trace_wave(&mut paths, &mut wave, &mut ps, &mut buffers, memories);
-        for (((&pixel, sum), path), &offset) in pixels.iter().zip(sums.iter_mut()).zip(&paths).zip(&offsets) {
-            record(pixel, sum, offset, path.radiance());
+        for (i, (((&pixel, sum), path), &offset)) in pixels.iter().zip(sums.iter_mut()).zip(&paths).zip(&offsets).enumerate() {
+            record(pixel, sum, offset, path.radiance(), aov_values.get(i * aov_n..(i + 1) * aov_n).unwrap_or_default());
         }
     }
     ps

@@ -29,7 +29,7 @@ use super::error_log::{ErrorTracker, PassError};
 use super::plot::{error_plot, side_by_side, Panel, Series};
 use crate::accel::Accel;
 use crate::film::io::write_bytes_atomic;
-use crate::film::{Film, Image, Tonemap};
+use crate::film::{Image, Tonemap};
 use crate::photon::PhotonBudget;
 use crate::render::{render, PassInfo, RenderPhaseStats, RenderSettings};
 use crate::scene::{Estimator, Scene};
@@ -212,7 +212,7 @@ pub fn describe_budget(b: PhotonBudget) -> String {
 /// `on_row` sees every pass's figures. The comparison's own time is not counted (see
 /// [`crate::render::PassInfo::seconds`]).
 pub fn run_estimator(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings, mut tracker: ErrorTracker, cancel: &AtomicBool, mut on_row: impl FnMut(&PassInfo, &PassError)) -> anyhow::Result<EstimatorRun> {
-    let mut film = Film::for_camera(&scene.camera)?;
+    let mut film = settings.film(&scene.camera)?;
     let mut metric_error: Option<anyhow::Error> = None;
     let stats = render(
         scene,

@@ -166,26 +166,25 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     // Phase 3: load and flatten.
     let mut mesh = TriangleMesh {
         normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
         ..Default::default()
     };
     let mut tri_material = Vec::new();
     let mut tri_flat = Vec::new();
-    let mut tri_uv = Vec::new();
+    let mut tri_has_uv = Vec::new();
+    let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
     for plan in &shape_plans {
-        let placed = load_and_place(&ctx, plan)?;
+        let mut placed = load_and_place(&ctx, plan)?;
         let base = mesh.triangle_count();
+        shape_first_triangle.push(base as u32);
         let n = placed.triangle_count();
         if (base + n) as u64 > u64::from(u32::MAX) {
             return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
         }
+        tri_has_uv.extend(std::iter::repeat_n(placed.uvs.is_some(), n));
+        placed.uvs.get_or_insert_with(|| vec![Vec2::ZERO; placed.positions.len()]);
         mesh.append(&placed);
-        if !textures.is_empty() {
-            tri_uv.extend(placed.indices.iter().map(|idx| match &placed.uvs {
-                Some(uvs) => idx.map(|k| uvs[k as usize]),
-                None => [Vec2::ZERO, Vec2::X, Vec2::Y],
-            }));
-        }
         tri_material.extend(std::iter::repeat_n(plan.material, n));
         tri_flat.extend(std::iter::repeat_n(plan.flat, n));
         if let Some(radiance) = plan.radiance {
@@ -239,7 +238,8 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         tri_flat,
         materials,
         textures,
-        tri_uv,
+        tri_has_uv,
+        shape_first_triangle,
         lights,
         camera,
         integrator,
@@ -284,7 +284,12 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
             }
         }
     };
+    let aovs = match &d.aovs {
+        Some(spec) => check::aovs(spec).map_err(|e| ctx.key_error("integrator.aovs", e.0))?,
+        None => super::aov::Aovs::default(),
+    };
     Ok(IntegratorSettings {
+        aovs,
         max_depth: d.max_depth,
         rr_depth: d.rr_depth,
         samples_per_pixel: d.samples_per_pixel,

@@ -43,6 +43,8 @@ pub(crate) struct IntegratorDesc {
     pub samples_per_pixel: u32,
     pub seed: u64,
     pub caustics: Option<CausticsDesc>,
+    /// `name:type,…` (`scene::aov`).
+    pub aovs: Option<String>,
 }
 
 impl Default for IntegratorDesc {
@@ -53,6 +55,7 @@ impl Default for IntegratorDesc {
             samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
             seed: defaults::SEED,
             caustics: None,
+            aovs: None,
         }
     }
 }

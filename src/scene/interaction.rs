@@ -103,12 +103,17 @@ impl Scene {
         })
     }
 
-    /// The texture coordinates at `si`: its triangle's vertex coordinates interpolated by its barycentrics
-    /// (Mitsuba's `Mesh::compute_surface_interaction`). Only for scenes with a textured material.
+    /// The texture coordinates at `si`: its triangle's vertex coordinates interpolated by its barycentrics,
+    /// or the barycentrics themselves where its shape has none (Mitsuba's `Mesh::compute_surface_interaction`).
     #[inline]
     #[must_use]
     pub fn tex_uv(&self, si: &SurfaceInteraction) -> Vec2 {
-        let [a, b, c] = self.tri_uv[si.prim as usize];
+        let prim = si.prim as usize;
+        if !self.tri_has_uv[prim] {
+            return si.uv;
+        }
+        let uvs = self.mesh.uvs.as_deref().expect("the scene's mesh has uvs");
+        let [a, b, c] = self.mesh.indices[prim].map(|k| uvs[k as usize]);
         let (u, v) = (si.uv.x, si.uv.y);
         (1.0 - u - v) * a + u * b + v * c
     }

@@ -104,6 +104,7 @@
 //! A shape lying more than 2¹⁴ times its own size from the origin is refused (`precision`: f32 coordinates
 //! cannot hold it there; the error states the limit).
 
+pub mod aov;
 mod build;
 mod clip;
 mod convert;
@@ -137,7 +138,6 @@ pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
 use crate::material::Material;
-use crate::math::Vec2;
 use crate::texture::Texture;
 pub use crate::camera::Camera;
 use crate::light::LightSet;
@@ -148,7 +148,7 @@ use crate::mesh::TriangleMesh;
 pub struct Scene {
     /// The scene file (as given to [`Scene::load`] / the `name_for_errors` of [`Scene::from_toml_str`]).
     pub path: PathBuf,
-    /// The flattened soup: prim = triangle index; `normals` always `Some` (per vertex).
+    /// The flattened soup: prim = triangle index; `normals` and `uvs` always `Some` (per vertex).
     pub mesh: TriangleMesh,
     /// Index into `bsdfs`, per triangle.
     pub tri_material: Vec<u32>,
@@ -158,15 +158,17 @@ pub struct Scene {
     /// `shading`, with the triangle's geometric normal), read by [`Scene::interaction`]; made at load, from
     /// the fields above.
     shading: Vec<TriangleShading>,
+    /// Per shape of the scene file, in its order, the index of its first triangle (ascending): a
+    /// triangle's shape for the `shape_index` and `prim_index` AOVs ([`Scene::shape_of`]).
+    pub shape_first_triangle: Vec<u32>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once), indexed
     /// by `tri_material`; [`Scene::bsdf_at`] evaluates one at a hit.
     pub materials: Vec<Material>,
     /// The textures the materials use (`Material::bindings` index them).
     pub textures: Vec<Texture>,
-    /// Per triangle, the texture coordinates of its three vertices (the mesh's, or `(0, 0), (1, 0), (0, 1)`
-    /// where it has none, so that a hit's are its barycentrics, as in Mitsuba); empty when no material is
-    /// textured.
-    pub tri_uv: Vec<[Vec2; 3]>,
+    /// Per triangle: whether its shape has texture coordinates (in `mesh.uvs`, per vertex, zeros for the
+    /// shapes without); where it has none, a hit's are its barycentrics, as in Mitsuba ([`Scene::tex_uv`]).
+    pub tri_has_uv: Vec<bool>,
     pub lights: LightSet,
     pub camera: Camera,
     pub integrator: IntegratorSettings,
@@ -291,6 +293,14 @@ impl Scene {
     #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count()
+    }
+
+    /// Triangle `prim`'s shape (its index in the scene file's order, from 0) and its index within that
+    /// shape (Mitsuba's `prim_index`).
+    #[must_use]
+    pub fn shape_of(&self, prim: u32) -> (u32, u32) {
+        let shape = self.shape_first_triangle.partition_point(|&first| first <= prim).saturating_sub(1);
+        (shape as u32, prim - self.shape_first_triangle.get(shape).copied().unwrap_or(0))
     }
 }
 

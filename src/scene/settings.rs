@@ -18,6 +18,7 @@
 //! knn = 50                  # k of the k-NN density estimate (≥ 1)
 //! max_radius = 0.1          # optional search-radius cap, scene units (> 0)
 //! ```
+//! and `integrator.aovs = "name:type,…"`, the AOVs written beside the image (module `scene::aov`).
 
 /// The default of every render setting.
 pub mod defaults {
@@ -135,6 +136,12 @@ pub mod check {
         at_least_one(v.into())
     }
 
+    /// The AOVs to write (`integrator.aovs`, Mitsuba's `aovs`, `--aov`): `name:type` pairs or types
+    /// (`crate::scene::aov::Aovs::parse`, which says what is wrong).
+    pub fn aovs(v: &str) -> Result<crate::scene::aov::Aovs, Invalid> {
+        crate::scene::aov::Aovs::parse(v)
+    }
+
     /// Exposure of a PNG in stops: finite.
     pub fn exposure(v: f32) -> Result<(), Invalid> {
         if !v.is_finite() {
@@ -205,7 +212,7 @@ impl Default for CausticsSettings {
 }
 
 /// The `[integrator]` table.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct IntegratorSettings {
     /// Longest path in segments (Mitsuba's `max_depth`: 1 = only emitters seen directly); -1 = unlimited.
     pub max_depth: i32,
@@ -214,6 +221,9 @@ pub struct IntegratorSettings {
     pub samples_per_pixel: u32,
     pub seed: u64,
     pub caustics: CausticsSettings,
+    /// The AOVs written beside the image (`integrator.aovs`, Mitsuba's `aov` integrator: [`super::aov`]);
+    /// none by default.
+    pub aovs: super::aov::Aovs,
 }
 
 impl IntegratorSettings {
@@ -233,6 +243,7 @@ impl Default for IntegratorSettings {
             samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
             seed: defaults::SEED,
             caustics: CausticsSettings::default(),
+            aovs: super::aov::Aovs::default(),
         }
     }
 }

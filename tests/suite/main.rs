@@ -11,6 +11,7 @@
 
 mod common;
 
+mod aov;
 mod backends_agree;
 mod bvh_backend;
 mod caustic_estimators;

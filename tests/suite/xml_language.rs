@@ -144,7 +144,9 @@ fn integrators_read_as_path_or_replaced_by_the_command_line() {
     write(&scene, &with(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal"/><integrator type="path"><integer name="max_depth" value="5"/></integrator></integrator>"#));
     let s = load(&scene);
     assert_eq!(s.integrator.max_depth, 5);
-    assert!(s.notes.iter().any(|n| n.kind == NoteKind::Ignored && n.message.contains("aovs")), "{:?}", s.notes);
+    // Its AOVs are written beside the image (tests/suite/aov.rs), not ignored.
+    assert_eq!(s.integrator.aovs.channel_names().collect::<Vec<_>>(), ["nn.X", "nn.Y", "nn.Z"]);
+    assert!(!s.notes.iter().any(|n| n.message.contains("aovs")), "{:?}", s.notes);
     write(&scene, &with(r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#));
     assert!(error(&scene).contains("hide_emitters"));
     // A research integrator: refused, naming the way out; replaced when the command line chooses.

@@ -293,9 +293,19 @@ impl<'a> Converter<'a> {
                     return Err(el.error(format!("integrator {} without a nested <integrator> renders no image caustica can make", shown(kind))));
                 };
                 for child in el.children.iter().filter(|c| c.tag != "integrator") {
+                    // Mitsuba's `aov` integrator: its `aovs` are written beside the image (`scene::aov`).
+                    if kind == "aov" && child.attr("name") == Some("aovs") && PROPERTY_TAGS.contains(&child.tag.as_str()) {
+                        let value = values::property_value(child, el)?;
+                        let mut table = std::mem::take(&mut self.integrator);
+                        self.put(&mut table, "integrator", el, child, "aovs", value)?;
+                        self.integrator = table;
+                        continue;
+                    }
                     self.note_ignored(el, child, "caustica renders the image of the nested integrator only");
                 }
-                self.note(el, "its nested integrator is rendered (the extra channels are not written)");
+                if kind != "aov" {
+                    self.note(el, "its nested integrator is rendered (the extra channels are not written)");
+                }
                 self.integrator_seen = false;
                 self.integrator(inner)
             }

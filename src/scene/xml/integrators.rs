@@ -1,8 +1,9 @@
 //! Mitsuba's integrator types and how caustica renders the image each one estimates. On a scene without
 //! participating media (caustica refuses media), the volumetric and differentiable path tracers estimate
 //! the image `path` does; `direct` is `path` with `max_depth = 2` (the emitters seen and one bounce of
-//! direct light); `aov`, `moment` and `stokes` wrap integrators, whose image is rendered (their extra
-//! channels are not written). The rest are refused,
+//! direct light); `aov`, `moment` and `stokes` wrap integrators, whose image is rendered: `aov`'s
+//! `aovs` are written beside it (`integrator.aovs`, module `scene::aov`), the extra channels of `moment`
+//! and `stokes` are not. The rest are refused,
 //! unless the command line chose the estimator (`--estimator`), which replaces them.
 //!
 //! ```xml

@@ -197,6 +197,12 @@ impl Writer {
     }
 
     fn integrator(&mut self, t: Option<&Table>) -> Result<()> {
+        // AOVs: Mitsuba's `aov` integrator around the path tracer.
+        let aovs = t.and_then(|t| t.get("aovs")).and_then(Value::as_str);
+        if let Some(aovs) = aovs {
+            self.open("<integrator type=\"aov\">");
+            self.line(&format!("<string name=\"aovs\" value=\"{}\"/>", esc(aovs)));
+        }
         self.open("<integrator type=\"path\">");
         if let Some(t) = t {
             for k in ["max_depth", "rr_depth"] {
@@ -217,6 +223,9 @@ impl Writer {
             }
         }
         self.close("integrator");
+        if aovs.is_some() {
+            self.close("integrator");
+        }
         Ok(())
     }
 
