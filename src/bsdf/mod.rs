@@ -34,7 +34,9 @@ mod conductor_table;
 mod dielectric;
 mod diffuse;
 mod ior;
+mod mask;
 mod microfacet;
+mod null;
 mod params;
 mod plastic;
 mod rough_coating;
@@ -55,6 +57,8 @@ pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use mask::Mask;
+pub use null::Null;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -200,6 +204,8 @@ bsdf_types! {
     RoughPlastic(roughplastic::RoughPlastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
+    Mask(mask::Mask),
+    Null(null::Null),
 }
 
 /// The plugin of the BSDF type Mitsuba names `name`.

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -59,6 +59,10 @@ fn blend(weight: f32, b0: Bsdf, b1: Bsdf) -> Bsdf {
 }
 
 /// Two-sided perfect mirror.
+fn mask(opacity: f32, b: Bsdf) -> Bsdf {
+    Bsdf::Mask(Mask { opacity, bsdf: Box::new(b) })
+}
+
 fn mirror() -> Bsdf {
     two(Bsdf::Conductor(Conductor {
         specular_reflectance: Vec3::new(0.9, 0.8, 0.7),
@@ -81,9 +85,9 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 }
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
-/// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic): the family
-/// the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 193;
+/// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic + 2×6 + 3
+/// masks): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 208;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -341,6 +345,45 @@ fn chi2_detects_a_wrong_microfacet_pdf() {
     assert!(!out.passed() && out.p_value < 1e-6, "{out}");
 }
 
+#[test]
+fn chi2_mask() {
+    // The pass-through (probability 1 − α) and any delta lobe of the nested BSDF are the "no direction" cell.
+    let mut cases = Vec::new();
+    for t in THETAS {
+        cases.push((format!("mask 0.6 twosided diffuse, θo {t}"), mask(0.6, two(diffuse(0.8))), wo_at(t), PdfIntegral::AtMostOne));
+        cases.push((format!("mask 0.3 twosided roughconductor, θo {t}"), mask(0.3, two(rough(0.2, None))), wo_at(t), PdfIntegral::AtMostOne));
+    }
+    for t in [0.0, 45.0, 80.0] {
+        cases.push((format!("mask 0.5 diffuse+mirror, θo {t}"), mask(0.5, blend(0.3, diffuse(0.8), mirror())), wo_at(t), PdfIntegral::AtMostOne));
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn mask_passes_one_minus_opacity_straight_through_and_null_everything() {
+    for t in THETAS {
+        let wo = wo_at(t);
+        for alpha in [0.0, 0.25, 1.0] {
+            let m = mask(alpha, two(diffuse(1.0)));
+            // Furnace: α of the white base plus 1 − α passed through.
+            let (albedo, se) = sampled_albedo(&m, wo, 100_000);
+            assert!((albedo - Vec3::ONE).abs().max_element() < 5.0 * se.max_element() + 1e-5, "α {alpha} θo {t}: {albedo}");
+            let through = m.sample(wo, 0.999_9, Vec2::new(0.3, 0.7), TransportMode::Radiance);
+            if alpha < 1.0 {
+                let s = through.unwrap();
+                assert_eq!((s.wi_local, s.weight, s.pdf_w, s.delta), (-wo, Vec3::ONE, 1.0 - alpha, true));
+            } else {
+                assert!(through.is_none_or(|s| !s.delta), "α = 1 never passes through");
+            }
+            let wi = wo_at(40.0 + t / 4.0);
+            assert_eq!(m.f(wo, wi, TransportMode::Radiance), alpha * two(diffuse(1.0)).f(wo, wi, TransportMode::Radiance));
+        }
+        let s = Bsdf::Null(Null).sample(wo, 0.5, Vec2::new(0.1, 0.2), TransportMode::Importance).unwrap();
+        assert_eq!((s.wi_local, s.weight, s.pdf_w, s.delta), (-wo, Vec3::ONE, 1.0, true));
+        assert_eq!(Bsdf::Null(Null).f_pdf(wo, wo_at(30.0), TransportMode::Radiance), (Vec3::ZERO, 0.0));
+    }
+}
+
 /// Every non-delta BSDF configuration the consistency tests sweep.
 fn non_delta_zoo() -> Vec<Bsdf> {
     let mut v = vec![
@@ -368,6 +411,8 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     }
     v.push(blend(0.3, diffuse(0.8), rough(0.2, Some((AU_ETA, AU_K)))));
     v.push(blend(0.3, diffuse(0.8), mirror()));
+    v.push(mask(0.6, two(diffuse(0.8))));
+    v.push(mask(0.4, two(rough(0.3, Some((AU_ETA, AU_K))))));
     v.push(two(plastic()));
     v.push(two(rough_plastic(MicrofacetType::Beckmann, 0.1, true)));
     v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
@@ -548,6 +593,12 @@ fn delta_flags() {
     assert!(!diffuse(0.0).has_non_delta() && !diffuse(0.0).has_delta(), "a black lobe scatters nothing");
     assert!(!blend(0.5, diffuse(0.0), mirror()).has_non_delta());
     assert!(blend(1.0, diffuse(1.0), mirror()).has_delta());
+    // A mask passes light through where it is not opaque; null everywhere.
+    assert!(mask(0.5, diffuse(1.0)).has_delta() && mask(0.5, diffuse(1.0)).has_non_delta() && mask(0.5, diffuse(1.0)).transmits());
+    assert!(!mask(1.0, diffuse(1.0)).has_delta() && !mask(1.0, diffuse(1.0)).transmits());
+    assert!(!mask(0.0, diffuse(1.0)).has_non_delta());
+    let null = Bsdf::Null(Null);
+    assert!(null.has_delta() && !null.has_non_delta() && null.transmits());
 }
 
 /// `chooses_lobe` is false exactly where `sample` ignores `u_lobe` (the path tracer then spares the sampler a
@@ -564,6 +615,8 @@ fn chooses_lobe_exactly_where_u_lobe_is_read() {
         (dielectric.clone(), true),
         (blend(0.5, diffuse(1.0), mirror()), true),
         (two(blend(0.5, diffuse(1.0), rough(0.3, None))), true),
+        (mask(0.5, two(diffuse(0.8))), true),
+        (Bsdf::Null(Null), false),
     ];
     let key = |s: Option<BsdfSample>| s.map(|s| (s.wi_local, s.weight, s.pdf_w, s.delta));
     for (bsdf, chooses) in cases {

@@ -524,6 +524,7 @@ impl<'a> Converter<'a> {
         let nested: &[&str] = match el.attr("type") {
             Some("twosided") => &["bsdf"],
             Some("blendbsdf") => &["bsdf_0", "bsdf_1"],
+            Some("mask") => &["bsdf"],
             _ => &[],
         };
         let mut n = 0;

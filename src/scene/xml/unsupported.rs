@@ -39,14 +39,12 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "mask", "an opacity mask cutting holes in the nested BSDF", LATER_MATERIALS),
     ("bsdf", "bumpmap", "the nested BSDF with normals perturbed by a height texture", LATER_MATERIALS),
     ("bsdf", "normalmap", "the nested BSDF with normals from a normal-map texture", LATER_MATERIALS),
     ("bsdf", "principled", "the Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "phong", "the modified Phong reflectance model", LATER_MATERIALS),
     ("bsdf", "mixturebsdf", "a weighted mixture of BSDFs", LATER_MATERIALS),
-    ("bsdf", "null", "an invisible surface (rays pass through)", LATER_MATERIALS),
     ("bsdf", "hair", "a hair fibre scattering model", OUT_OF_SCOPE),
     ("bsdf", "measured", "a measured (tabulated) BSDF", OUT_OF_SCOPE),
     ("bsdf", "measured_polarized", "a measured polarized BSDF", OUT_OF_SCOPE),
