@@ -125,3 +125,15 @@ fn texture_errors_name_their_keys() {
         assert!(shown.contains(key) && shown.contains(message), "{bsdf}:\n{shown}");
     }
 }
+
+#[test]
+fn mask_and_null_pt_match_mitsuba() {
+    matches_mitsuba("mask", Estimator::Pt, 512);
+}
+
+#[test]
+fn mask_and_null_mis_match_mitsuba() {
+    // Photons pass through the cut-outs and the null pane as through a delta surface; the glass sphere's
+    // caustic falls through the holes.
+    matches_mitsuba("mask", Estimator::Mis, 64);
+}
