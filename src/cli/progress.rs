@@ -1,7 +1,8 @@
 //! The progress line (indicatif), at most 80 columns: a bar, the percentage, the samples per pixel done
 //! (of the total, or so far with `--time-limit`), the sample rate in readable units, the elapsed time and
 //! the time left, then the last pass's error against `--reference`, cut to the terminal's width. Hidden
-//! when stdout is not a terminal or with `--quiet`.
+//! when stdout is not a terminal or with `--quiet`; without a terminal (a CI log), the same figures as a
+//! plain line on stderr every `--log-every` seconds instead (the progress of a 40-minute CI render).
 //!
 //! With `--time-limit` the bar measures time (its length is the limit in milliseconds), so its ETA is
 //! the time left.
@@ -22,6 +23,13 @@ pub struct Progress {
     start: Instant,
     /// The time limit in milliseconds (the bar's length then).
     limit_ms: Option<u64>,
+    /// Without a terminal: a line every this many milliseconds, and when the last one was due.
+    log_every_ms: Option<u64>,
+    last_log_ms: AtomicU64,
+    total_samples: u64,
+    pixels: u64,
+    /// The last pass's text (`pass 3 RMSE …`), for the log lines.
+    last_pass: std::sync::Mutex<String>,
 }
 
 /// A rate with an SI prefix: `950 samples/s`, `12.3 ksamples/s`, `1.23 Msamples/s`.
@@ -51,17 +59,34 @@ pub fn clock(d: Duration) -> String {
 impl Progress {
     /// A line over all samples of the render (or over the time limit).
     #[must_use]
-    pub fn new(show: bool, settings: &RenderSettings, pixels: u64) -> Self {
+    /// `log_every`: without a terminal, the interval of the plain progress lines (`None`: none).
+    pub fn new(show: bool, log_every: Option<Duration>, settings: &RenderSettings, pixels: u64) -> Self {
+        Self::with(show, log_every, settings.spp, settings.time_limit, pixels)
+    }
+
+    /// [`Progress::new`] from the settings it reads: `spp` samples per pixel, or `time_limit` seconds.
+    fn with(show: bool, log_every: Option<Duration>, spp: u32, time_limit: Option<f64>, pixels: u64) -> Self {
         let samples = Arc::new(AtomicU64::new(0));
         let start = Instant::now();
-        let limit_ms = settings.time_limit.map(|t| (t * 1e3).round().max(1.0) as u64);
-        if !show {
-            return Self { bar: None, samples, start, limit_ms };
-        }
+        let limit_ms = time_limit.map(|t| (t * 1e3).round().max(1.0) as u64);
         let pixels = pixels.max(1);
-        let bar = ProgressBar::new(limit_ms.unwrap_or(pixels * u64::from(settings.spp)));
+        let mut progress = Self {
+            bar: None,
+            samples: samples.clone(),
+            start,
+            limit_ms,
+            log_every_ms: log_every.map(|d| (d.as_millis() as u64).max(1)),
+            last_log_ms: AtomicU64::new(0),
+            total_samples: pixels * u64::from(spp),
+            pixels,
+            last_pass: std::sync::Mutex::new(String::new()),
+        };
+        if !show {
+            return progress;
+        }
+        let bar = ProgressBar::new(limit_ms.unwrap_or(pixels * u64::from(spp)));
         bar.set_draw_target(ProgressDrawTarget::stdout());
-        let total_spp = settings.spp;
+        let total_spp = spp;
         let timed = limit_ms.is_some();
         let (s_spp, s_rate) = (samples.clone(), samples.clone());
         let style = ProgressStyle::with_template("{bar:16} {percent:>3}% {spp} {rate} {clock} {wide_msg}").map(|style| {
@@ -82,12 +107,45 @@ impl Progress {
         if let Ok(style) = style {
             bar.set_style(style);
         }
-        Self { bar: Some(bar), samples, start, limit_ms }
+        progress.bar = Some(bar);
+        progress
+    }
+
+    /// The plain progress line: done so far (of the total or of the time limit), the rate, the elapsed time
+    /// and the time left, and the last pass.
+    fn log_line(&self, now_ms: u64) -> String {
+        let samples = self.samples.load(Ordering::Relaxed);
+        let secs = now_ms as f64 / 1e3;
+        let rate = if secs > 0.0 { samples as f64 / secs } else { 0.0 };
+        let spp = samples / self.pixels;
+        let (fraction, spp_text) = match self.limit_ms {
+            Some(limit) => (now_ms as f64 / limit as f64, format!("{spp} spp")),
+            None => (samples as f64 / self.total_samples.max(1) as f64, format!("{spp}/{} spp", self.total_samples / self.pixels)),
+        };
+        let fraction = fraction.clamp(0.0, 1.0);
+        let left = if fraction > 0.0 { Duration::from_secs_f64(secs * (1.0 - fraction) / fraction) } else { Duration::ZERO };
+        let pass = self.last_pass.lock().map(|p| p.clone()).unwrap_or_default();
+        let mut line = format!("progress: {:>3.0}% {spp_text} {} {} ETA {}", 100.0 * fraction, readable_rate(rate), clock(Duration::from_millis(now_ms)), clock(left));
+        if !pass.is_empty() {
+            let _ = write!(line, " {pass}");
+        }
+        line
+    }
+
+    /// Prints the plain line when one is due (one thread prints; the others see the new time).
+    fn maybe_log(&self) {
+        let Some(every) = self.log_every_ms else { return };
+        let now_ms = self.start.elapsed().as_millis() as u64;
+        let last = self.last_log_ms.load(Ordering::Relaxed);
+        if now_ms >= last + every && self.last_log_ms.compare_exchange(last, now_ms, Ordering::Relaxed, Ordering::Relaxed).is_ok() {
+            eprintln!("{}", self.log_line(now_ms));
+        }
     }
 
     /// A tile of `samples` pixel samples finished.
     pub fn tile_done(&self, samples: u64) {
         self.samples.fetch_add(samples, Ordering::Relaxed);
+        self.maybe_log();
         if let Some(b) = &self.bar {
             match self.limit_ms {
                 Some(limit) => b.set_position((self.start.elapsed().as_millis() as u64).min(limit)),
@@ -98,13 +156,17 @@ impl Progress {
 
     /// A pass finished; `error` is its error against the reference, if there is one.
     pub fn pass_done(&self, info: &PassInfo, error: Option<&PassError>) {
+        let mut msg = format!("pass {}", info.pass);
+        if let Some(e) = error {
+            let _ = write!(msg, " {}", progress_text(e));
+        }
+        if let Ok(mut last) = self.last_pass.lock() {
+            last.clone_from(&msg);
+        }
         if let Some(b) = &self.bar {
-            let mut msg = format!("pass {}", info.pass);
-            if let Some(e) = error {
-                let _ = write!(msg, " {}", progress_text(e));
-            }
             b.set_message(msg);
         }
+        self.maybe_log();
     }
 
     pub fn finish(&self) {
@@ -127,5 +189,13 @@ mod tests {
         assert_eq!(readable_rate(f64::NAN), "0 samples/s");
         assert_eq!(clock(Duration::from_secs(83)), "1:23");
         assert_eq!(clock(Duration::from_secs(3723)), "1:02:03");
+    }
+
+    #[test]
+    fn the_log_line_says_what_the_bar_says() {
+        let p = Progress::with(false, Some(Duration::from_secs(10)), 64, None, 100);
+        p.samples.store(1600, Ordering::Relaxed);
+        *p.last_pass.lock().unwrap() = "pass 2".into();
+        assert_eq!(p.log_line(4000), "progress:  25% 16/64 spp 400 samples/s 0:04 ETA 0:12 pass 2");
     }
 }

@@ -8,7 +8,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
 use serde::Serialize;
@@ -113,9 +113,20 @@ pub struct RenderArgs {
     /// fewer passes than N) into a partial film at -o, for `caustica merge`. Needs a fixed sample count.
     #[arg(long, value_name = "I/N", value_parser = |s: &str| s.parse::<Part>())]
     pub part: Option<Part>,
-    /// No progress bar.
+    /// No progress bar (nor, without a terminal, progress lines).
     #[arg(long, short = 'q')]
     pub quiet: bool,
+    /// Without a terminal (a CI log, a batch job), a progress line on stderr every SECONDS; 0: none.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = non_negative_seconds)]
+    pub log_every: f64,
+}
+
+/// A finite number of seconds ≥ 0.
+fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("{s:?} is not a number of seconds ≥ 0")),
+    }
 }
 
 /// The statistics JSON of a render (`--stats`; the schema is documented in the README).
@@ -285,7 +296,10 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let mut pass_log = PassLog { tracker, error_log: args.error_log.as_deref(), failure: None };
     // (No progress line where the stats JSON goes to standard output.)
     let stats_to_stdout = args.stats.as_deref().is_some_and(is_stdout);
-    let progress = Progress::new(!args.quiet && !stats_to_stdout && std::io::stdout().is_terminal(), &settings, crop_window(&scene).area());
+    let terminal = std::io::stdout().is_terminal();
+    let show = !args.quiet && !stats_to_stdout && terminal;
+    let log_every = (!args.quiet && !terminal && args.log_every > 0.0).then(|| Duration::from_secs_f64(args.log_every));
+    let progress = Progress::new(show, log_every, &settings, crop_window(&scene).area());
     let mut film = settings.film(&scene.camera)?;
     let share = match args.part {
         Some(p) => part::plan(&settings, film.tiles(TILE_SIZE).len(), p).map_err(|e| anyhow::anyhow!("--part {p}: {e}"))?,

@@ -153,3 +153,23 @@ fn checkpoints_hold_the_samples_their_stats_say() {
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
     }
 }
+
+/// Without a terminal (stdout a pipe, as in CI) a render prints a plain progress line on stderr every
+/// `--log-every` seconds; `--quiet` and `--log-every 0` print none.
+#[test]
+fn without_a_terminal_progress_lines_go_to_stderr() {
+    let dir = case_dir("log-lines");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<String> = render_args(&["--time-limit", "1.2", "--round-seconds", "0.1", "-o", "out.exr"]);
+        args.retain(|a| a != "--quiet");
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let out = Command::new(BIN).args(&args).current_dir(&dir).stdout(Stdio::piped()).stderr(Stdio::piped()).output().expect("run caustica");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).lines().filter(|l| l.starts_with("progress: ")).map(String::from).collect::<Vec<_>>()
+    };
+    let lines = run(&["--log-every", "0.25"]);
+    assert!(lines.len() >= 2, "{lines:?}");
+    assert!(lines.iter().all(|l| l.contains(" spp ") && l.contains("samples/s") && l.contains("ETA")), "{lines:?}");
+    assert!(run(&["--log-every", "0"]).is_empty());
+    assert!(run(&["--log-every", "0.25", "--quiet"]).is_empty());
+}
