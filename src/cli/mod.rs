@@ -6,6 +6,7 @@
 pub mod args;
 pub mod bench;
 pub mod compare;
+pub mod completions;
 pub mod converge;
 pub mod convert;
 pub mod info;
@@ -51,6 +52,10 @@ enum Command {
     Info(info::InfoArgs),
     /// Convert a scene between Mitsuba 3 XML and TOML (formats from the file names).
     Convert(convert::ConvertArgs),
+    /// Print the shell completion script for SHELL (bash, zsh, fish, elvish, powershell).
+    Completions(completions::CompletionsArgs),
+    /// Print the man page (roff).
+    Man,
 }
 
 /// How a subcommand ended without an error.
@@ -87,6 +92,8 @@ pub fn main() -> ExitCode {
         Command::Converge(args) => converge::run(args),
         Command::Info(args) => info::run(args),
         Command::Convert(args) => convert::run(args),
+        Command::Completions(args) => completions::run(args, Cli::command()),
+        Command::Man => completions::man(Cli::command()),
     };
     match result {
         Ok(Outcome::Done) => ExitCode::SUCCESS,

@@ -16,6 +16,7 @@ mod backends_agree;
 mod bvh_backend;
 mod caustic_estimators;
 mod cli_bench;
+mod cli_completions;
 mod cli_errors;
 mod converge_cli;
 mod convert;
