@@ -29,13 +29,16 @@
 
 mod at_wo;
 mod blend;
+mod bumpmap;
 mod conductor;
 mod conductor_table;
 mod dielectric;
 mod diffuse;
 mod ior;
 mod microfacet;
+mod normalmap;
 mod params;
+mod perturbed;
 mod plastic;
 mod rough_coating;
 mod roughconductor;
@@ -48,6 +51,9 @@ mod tests;
 
 pub use at_wo::BsdfAtWo;
 pub use params::{ParamMut, ParamVisitor};
+pub use perturbed::{FrameRule, HitFrame, Perturbation, Perturbed};
+pub use bumpmap::BumpMap;
+pub use normalmap::NormalMap;
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
 pub use microfacet::{Microfacet, MicrofacetType};
 pub use dielectric::fresnel_dielectric;
@@ -200,6 +206,8 @@ bsdf_types! {
     RoughPlastic(roughplastic::RoughPlastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
+    NormalMap(normalmap::NormalMap),
+    BumpMap(bumpmap::BumpMap),
 }
 
 /// The plugin of the BSDF type Mitsuba names `name`.
