@@ -16,6 +16,9 @@
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
+//! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
+//!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
+//!   hit's geometry; they are not reciprocal (nor are Mitsuba's).
 //! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
 //!   `sample → None`. Nothing returns NaN for unit, finite inputs.
 //!
