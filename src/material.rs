@@ -13,7 +13,9 @@
 //! that reflects anything, a choice of lobes, transmission: [`Facts`]) is decided once, on the template with
 //! each textured colour at its texture's per-channel maximum and each textured number at its mean (strictly
 //! between the texture's extremes when it varies, so that a blend's weight keeps both components): a
-//! parameter that is nonzero somewhere counts as nonzero. A hit where a texture makes the lobe black then
+//! parameter that is nonzero somewhere counts as nonzero. A perturbed shading frame (`normalmap`, `bumpmap`:
+//! [`ParamMut::Frame`], which the scene layer sets from the texture and the hit's geometry) stays the
+//! template's identity there: a frame changes no lobe's presence. A hit where a texture makes the lobe black then
 //! evaluates to zero, as it does in Mitsuba.
 
 use std::borrow::Cow;

@@ -131,6 +131,18 @@ impl<'a, C> Props<'a, C> {
         })
     }
 
+    /// Checks that `key` holds a texture, for a parameter only a texture can give (a normal map): absent or
+    /// a constant is an error naming `what`.
+    pub fn require_texture(&self, key: &str, what: &str) -> Result<(), PropError> {
+        if self.texture(key).is_some() {
+            return Ok(());
+        }
+        Err(PropError::new(key, match self.get(key) {
+            None => format!("missing: {what}"),
+            Some(_) => format!("must be a texture ({what}), not a constant"),
+        }))
+    }
+
     /// Whether `key` is given.
     #[must_use]
     pub fn has(&self, key: &str) -> bool {

@@ -16,6 +16,9 @@
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
+//! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
+//!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
+//!   hit's geometry; they are not reciprocal (nor are Mitsuba's).
 //! - Directions in the tangent plane (`wo.z == 0` or `wi.z == 0`) scatter nothing: `f = 0`, `pdf_w = 0`,
 //!   `sample → None`. Nothing returns NaN for unit, finite inputs.
 //!
@@ -29,6 +32,7 @@
 
 mod at_wo;
 mod blend;
+mod bumpmap;
 mod conductor;
 mod conductor_table;
 mod dielectric;
@@ -36,8 +40,10 @@ mod diffuse;
 mod ior;
 mod mask;
 mod microfacet;
+mod normalmap;
 mod null;
 mod params;
+mod perturbed;
 mod plastic;
 mod rough_coating;
 mod roughconductor;
@@ -50,6 +56,9 @@ mod tests;
 
 pub use at_wo::BsdfAtWo;
 pub use params::{ParamMut, ParamVisitor};
+pub use perturbed::{FrameRule, HitFrame, Perturbation, Perturbed};
+pub use bumpmap::BumpMap;
+pub use normalmap::NormalMap;
 pub use conductor::{fresnel_conductor, fresnel_conductor_rgb};
 pub use microfacet::{Microfacet, MicrofacetType};
 pub use dielectric::fresnel_dielectric;
@@ -206,6 +215,8 @@ bsdf_types! {
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),
     Null(null::Null),
+    NormalMap(normalmap::NormalMap),
+    BumpMap(bumpmap::BumpMap),
 }
 
 /// The plugin of the BSDF type Mitsuba names `name`.

@@ -9,19 +9,25 @@
 //! [`Model::params_changed`](super::Model), except what Mitsuba itself derives from a texture's *mean*
 //! (sampling weights: `plastic`'s `specular_sampling_weight`), which stays the template's.
 
+use super::perturbed::{FrameRule, Perturbation};
 use super::Bsdf;
 use crate::math::Vec3;
 
-/// A texturable parameter: an RGB value (a texture's `eval`), a number (its `eval_1`), or two numbers that
-/// one key sets to the same value (an isotropic `alpha`, which is `alpha_u` and `alpha_v`).
+/// A texturable parameter: an RGB value (a texture's `eval`), a number (its `eval_1`), two numbers that
+/// one key sets to the same value (an isotropic `alpha`, which is `alpha_u` and `alpha_v`), or a perturbed
+/// shading frame (`normalmap`, `bumpmap`), which needs more than the texture at a uv: the hit's geometry
+/// ([`HitFrame`](super::HitFrame)), from which the scene layer makes it by its [`FrameRule`] (`Scene::bsdf_at`).
 pub enum ParamMut<'a> {
     Rgb(&'a mut Vec3),
     Float(&'a mut f32),
     FloatPair(&'a mut f32, &'a mut f32),
+    Frame(&'a mut Perturbation, FrameRule),
 }
 
 impl ParamMut<'_> {
-    /// Sets the parameter from a texture's colour (`eval`) or number (`eval_1`), whichever it takes.
+    /// Sets the parameter from a texture's colour (`eval`) or number (`eval_1`), whichever it takes; a
+    /// [`ParamMut::Frame`], which needs the hit's geometry, is left as it is (the identity in a template:
+    /// what the per-material facts are decided on, as the frame changes no lobe's presence).
     pub fn set(self, rgb: impl FnOnce() -> Vec3, number: impl FnOnce() -> f32) {
         match self {
             ParamMut::Rgb(v) => *v = rgb(),
@@ -30,6 +36,7 @@ impl ParamMut<'_> {
                 *x = number();
                 *y = *x;
             }
+            ParamMut::Frame(..) => {}
         }
     }
 }

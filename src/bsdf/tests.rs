@@ -86,8 +86,8 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
 /// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic + 2×6 + 3
-/// masks): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 208;
+/// masks + 7×3 + 3 perturbed frames): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 232;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -800,4 +800,130 @@ fn diffuse_reflectance_follows_mitsubas_eval_diffuse_reflectance() {
     let one_sided = Bsdf::RoughConductor(RoughConductor { distribution: Microfacet::isotropic(MicrofacetType::Ggx, 0.3, true), specular_reflectance: Vec3::ONE, eta_k: None });
     assert_eq!(one_sided.diffuse_reflectance(back), Vec3::ZERO);
     assert_eq!(diffuse(0.4).diffuse_reflectance(Vec3::new(1.0, 0.0, 0.0)), Vec3::ZERO, "a tangent wo scatters nothing");
+}
+
+// ---- normalmap and bumpmap: the nested BSDF in a perturbed frame (super::perturbed) ----
+
+/// A perturbed normal well off the unperturbed one (about 30°), and a tangent that is not the local x axis.
+fn tilted() -> crate::bsdf::Perturbation {
+    crate::bsdf::Perturbation { n: Vec3::new(0.45, -0.2, 0.85), tangent: Vec3::new(0.6, 0.8, 0.0) }
+}
+
+fn normalmap(inner: Bsdf, at: crate::bsdf::Perturbation, shadowing: bool) -> Bsdf {
+    Bsdf::NormalMap(crate::bsdf::NormalMap(crate::bsdf::Perturbed { bsdf: Box::new(inner), flip_invalid_normals: true, use_shadowing_function: shadowing, at }))
+}
+
+fn bumpmap(inner: Bsdf, at: crate::bsdf::Perturbation) -> Bsdf {
+    let perturbed = crate::bsdf::Perturbed { bsdf: Box::new(inner), flip_invalid_normals: true, use_shadowing_function: true, at };
+    Bsdf::BumpMap(crate::bsdf::BumpMap { perturbed, scale: 1.0 })
+}
+
+/// The perturbed BSDFs the tests sweep: one-sided and two-sided lobes, isotropic and anisotropic, a blend
+/// with a delta lobe, with and without the shadow terminator.
+fn perturbed_zoo() -> Vec<(String, Bsdf)> {
+    let diffuse1 = Bsdf::Diffuse(Diffuse { reflectance: Vec3::new(0.9, 0.6, 0.3) });
+    let aniso = Bsdf::RoughConductor(RoughConductor {
+        distribution: Microfacet { kind: MicrofacetType::Ggx, alpha_u: 0.08, alpha_v: 0.5, sample_visible: true },
+        specular_reflectance: Vec3::ONE,
+        eta_k: Some((AU_ETA, AU_K)),
+    });
+    vec![
+        ("normalmap(diffuse)".into(), normalmap(diffuse1.clone(), tilted(), true)),
+        ("normalmap(diffuse), no shadowing".into(), normalmap(diffuse1.clone(), tilted(), false)),
+        ("twosided(normalmap(roughconductor ggx 0.3))".into(), two(normalmap(rough(0.3, None), tilted(), true))),
+        ("normalmap(anisotropic roughconductor)".into(), normalmap(aniso.clone(), tilted(), true)),
+        ("bumpmap(twosided(anisotropic))".into(), bumpmap(two(aniso), tilted())),
+        ("normalmap(roughplastic)".into(), normalmap(rough_plastic(MicrofacetType::Beckmann, 0.2, true), tilted(), true)),
+        ("normalmap(blend(diffuse, mirror))".into(), normalmap(blend(0.4, diffuse(0.8), mirror()), tilted(), true)),
+    ]
+}
+
+#[test]
+fn chi2_perturbed_frames() {
+    let mut cases = Vec::new();
+    for (name, bsdf) in perturbed_zoo() {
+        // (75°, φ π) flips the normal (wo on the other side of it).
+        for (t, phi) in [(0.0, 0.3), (40.0, 0.3), (75.0, std::f32::consts::PI), (120.0, 2.0)] {
+            // From below, only the two-sided ones scatter (the others are black there: tested elsewhere).
+            if t > 90.0 && !(name.contains("twosided") || name.contains("blend")) {
+                continue;
+            }
+            cases.push((format!("{name} θo {t} φo {phi}"), bsdf.clone(), dir(t, phi), PdfIntegral::AtMostOne));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn perturbed_samples_report_pdf_w_and_weight_consistently() {
+    for (k, (name, bsdf)) in perturbed_zoo().iter().enumerate() {
+        let mut delta = 0;
+        for i in 0..20_000u64 {
+            let mut s = Sampler::for_key(34, k as u64, i);
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let Some(smp) = bsdf.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Radiance) else {
+                continue;
+            };
+            let wi = smp.wi_local;
+            assert!((wi.length() - 1.0).abs() < 1e-5 && smp.weight.is_finite() && smp.weight.min_element() >= 0.0, "{name}");
+            if smp.delta {
+                delta += 1;
+                assert!(smp.pdf_w > 0.0 && smp.pdf_w <= 1.0);
+                continue;
+            }
+            assert_eq!(smp.pdf_w, bsdf.pdf_w(wo, wi), "{name}");
+            let want = bsdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs() / smp.pdf_w;
+            assert!((smp.weight - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-6), "{name}: {} vs {want}", smp.weight);
+            let (f, pdf) = bsdf.f_pdf(wo, wi, TransportMode::Radiance);
+            assert_eq!((f, pdf), (bsdf.f(wo, wi, TransportMode::Radiance), smp.pdf_w), "{name}");
+        }
+        assert_eq!(delta > 0, name.contains("mirror"), "{name}");
+    }
+}
+
+#[test]
+fn perturbed_furnace_sampled_albedo_is_the_integrated_albedo() {
+    // A white diffuse under a tilted normal: the sampler's mean weight is ∫ f |cos θi| dωi (its lost samples
+    // are exactly the directions the value is zero at), at most 1, and 1 for the unperturbed frame.
+    let white = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
+    for (at, shadowing) in [(tilted(), false), (tilted(), true), (crate::bsdf::Perturbation::default(), true)] {
+        let bsdf = normalmap(white.clone(), at, shadowing);
+        for t in [0.0, 30.0, 60.0, 85.0] {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&bsdf, wo, 200_000);
+            let integral = integrate_sphere(|wi| bsdf.f(wo, wi, TransportMode::Radiance).x * wi.z.abs()) as f32;
+            assert!((albedo.x - integral).abs() <= 4.0 * se.x + 1e-4, "{at:?} θo {t}: sampled {albedo} vs ∫ {integral} (σ {se})");
+            assert!(integral <= 1.0 + 1e-4, "{at:?} θo {t}: ∫f cos = {integral}");
+            if at == crate::bsdf::Perturbation::default() {
+                assert!((integral - 1.0).abs() < 1e-4 && (albedo.x - 1.0).abs() < 1e-5, "identity θo {t}: {albedo}, ∫ {integral}");
+            }
+        }
+    }
+}
+
+#[test]
+fn perturbation_rules_follow_mitsuba() {
+    use crate::bsdf::{FrameRule, HitFrame};
+    use crate::math::Frame;
+    // A hit whose local frame is not Mitsuba's: its ∂p/∂u along the local bitangent.
+    let frame = Frame::from_normal(Vec3::new(0.0, 0.6, 0.8));
+    let hit = HitFrame { frame, ng: frame.n, dp_du: 2.0 * frame.t, dp_dv: -3.0 * frame.s };
+    assert_eq!(hit.tangent(), Vec2::new(0.0, 1.0));
+    let normal = |rgb: Vec3| FrameRule::NormalMap.perturbation(|| rgb, || unreachable!(), &hit);
+    // (½, ½, 1) is the unperturbed normal; +x in Mitsuba's frame (along ∂p/∂u) is the local +y here.
+    assert!((normal(Vec3::new(0.5, 0.5, 1.0)).n - Vec3::Z).length() < 1e-6);
+    let p = normal(Vec3::new(1.0, 0.5, 0.5));
+    assert!((p.n - Vec3::Y).length() < 1e-6 && (p.tangent - Vec3::Y).length() < 1e-6, "{p:?}");
+    // A height whose gradient is (g_u, g_v) on a plane with ∂p/∂u = x, ∂p/∂v = y: the normal (−g_u, −g_v, 1).
+    let flat = HitFrame { frame: Frame::from_normal(Vec3::Z), ng: Vec3::Z, dp_du: Vec3::X, dp_dv: Vec3::Y };
+    let bump = |scale: f32, g: Vec2| FrameRule::Height { scale }.perturbation(|| unreachable!(), || g, &flat);
+    assert!((bump(2.0, Vec2::new(0.1, -0.3)).n - Vec3::new(-0.2, 0.6, 1.0).normalize()).length() < 1e-6);
+    assert_eq!(bump(1.0, Vec2::ZERO).n, Vec3::Z);
+    // The flip of an invalid normal: wo on the other side of the perturbed normal sees it mirrored in x, y.
+    let b = normalmap(Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }), crate::bsdf::Perturbation { n: Vec3::new(0.8, 0.0, 0.6), tangent: Vec3::X }, false);
+    let wo = Vec3::new(-0.9, 0.0, 0.3).normalize();
+    // Flipped: n = (−0.8, 0, 0.6); wi along it has cos θ′i = 1.
+    let wi = Vec3::new(-0.8, 0.0, 0.6);
+    let f = b.f(wo, wi, TransportMode::Radiance).x;
+    assert!((f - std::f32::consts::FRAC_1_PI / 0.6).abs() < 1e-5, "{f}");
 }

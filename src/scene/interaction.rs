@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 
 use super::Scene;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, HitFrame, ParamMut};
 use crate::accel::Hit;
 use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
@@ -97,10 +97,46 @@ impl Scene {
             return Cow::Borrowed(material.template());
         }
         let uv = self.tex_uv(si);
+        // The hit's geometry, made only for a parameter that reads it (a normal or height map), once.
+        let mut hit = None;
         material.bsdf_at(|texture, param| {
             let t = &self.textures[texture as usize];
-            param.set(|| t.eval_rgb(uv), || t.eval_1(uv));
+            match param {
+                ParamMut::Frame(at, rule) => {
+                    let hit = hit.get_or_insert_with(|| self.hit_frame(si));
+                    *at = rule.perturbation(|| t.eval_rgb(uv), || t.eval_1_grad(uv), hit);
+                }
+                param => param.set(|| t.eval_rgb(uv), || t.eval_1(uv)),
+            }
         })
+    }
+
+    /// The geometry at `si` a perturbed shading frame reads: its frame, geometric normal and the surface's
+    /// derivatives `∂p/∂u`, `∂p/∂v` — Mitsuba's mesh rule (`Mesh::compute_surface_interaction`,
+    /// src/render/mesh.cpp): with texture coordinates, the solution of `p1 − p0 = ∂p/∂u·Δu₁ + ∂p/∂v·Δv₁`,
+    /// `p2 − p0 = ∂p/∂u·Δu₂ + ∂p/∂v·Δv₂`, or, where the coordinates are degenerate (a zero determinant),
+    /// `coordinate_system(ng)`; without them, the barycentric parameterisation, `p1 − p0` and `p2 − p0`.
+    #[must_use]
+    pub fn hit_frame(&self, si: &SurfaceInteraction) -> HitFrame {
+        let prim = si.prim as usize;
+        let [p0, p1, p2] = self.shading(si.prim).p;
+        let (dp0, dp1) = (p1 - p0, p2 - p0);
+        let (dp_du, dp_dv) = match self.mesh.uvs.as_deref().filter(|_| self.tri_has_uv[prim]) {
+            None => (dp0, dp1),
+            Some(uvs) => {
+                let [uv0, uv1, uv2] = self.mesh.indices[prim].map(|k| uvs[k as usize]);
+                let (duv0, duv1) = (uv1 - uv0, uv2 - uv0);
+                let det = duv0.x * duv1.y - duv0.y * duv1.x;
+                if det != 0.0 {
+                    let inv = 1.0 / det;
+                    ((duv1.y * dp0 - duv0.y * dp1) * inv, (duv0.x * dp1 - duv1.x * dp0) * inv)
+                } else {
+                    let f = Frame::from_normal(si.ng);
+                    (f.s, f.t)
+                }
+            }
+        };
+        HitFrame { frame: si.frame, ng: si.ng, dp_du, dp_dv }
     }
 
     /// The texture coordinates at `si`: its triangle's vertex coordinates interpolated by its barycentrics,

@@ -145,6 +145,51 @@ impl Bitmap {
         }
     }
 
+    /// The gradient of [`Bitmap::eval_1`] with respect to `(u, v)` (Mitsuba's `BitmapTexture::eval_1_grad`):
+    /// zero for `nearest`; for `bilinear` the derivatives of the interpolation across the four texels around
+    /// `uv` (a texel's number: its value, or an RGB texel's luminance), per texel, taken back through
+    /// `to_uv` by its transposed 2×2 part and then scaled by the resolution, in Mitsuba's order (which
+    /// differs from the chain rule only for a `to_uv` that mixes `u` and `v` on a non-square image).
+    #[must_use]
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let uv = self.to_uv.transform_point2(uv);
+        let [f00, f10, f01, f11] = if self.image.channels() == 1 {
+            self.corners::<1>(uv).map(|t| t[0])
+        } else {
+            self.corners::<3>(uv).map(|t| luminance(Vec3::from_array(t)))
+        };
+        let (w, h) = (self.image.width() as f32, self.image.height() as f32);
+        let (px, py) = (uv.x * w - 0.5, uv.y * h - 0.5);
+        let (tx, ty) = (px - px.floor(), py - py.floor());
+        let (sx, sy) = (1.0 - tx, 1.0 - ty);
+        // Partial derivatives per texel along x and y.
+        let dx = sy * (f10 - f00) + ty * (f11 - f01);
+        let dy = sx * (f01 - f00) + tx * (f11 - f10);
+        let m = self.to_uv;
+        Vec2::new(w * (m.x_axis.x * dx + m.x_axis.y * dy), h * (m.y_axis.x * dx + m.y_axis.y * dy))
+    }
+
+    /// The four texels a bilinear lookup at `uv` (after `to_uv`) reads, in Dr.Jit's corner order (0,0),
+    /// (1,0), (0,1), (1,1) (its `eval_fetch`).
+    #[inline]
+    fn corners<const C: usize>(&self, uv: Vec2) -> [[f32; C]; 4] {
+        debug_assert_eq!(self.image.channels(), C);
+        let (w, h) = (self.image.width(), self.image.height());
+        let data = self.image.data();
+        let texel = |x: usize, y: usize| -> [f32; C] {
+            let i = (y * w as usize + x) * C;
+            std::array::from_fn(|c| data[i + c])
+        };
+        let (px, py) = (uv.x * w as f32 - 0.5, uv.y * h as f32 - 0.5);
+        let (ix, iy) = (px.floor() as i64, py.floor() as i64);
+        let (x0, x1) = (self.wrap.wrap(ix, w), self.wrap.wrap(ix.saturating_add(1), w));
+        let (y0, y1) = (self.wrap.wrap(iy, h), self.wrap.wrap(iy.saturating_add(1), h));
+        [texel(x0, y0), texel(x1, y0), texel(x0, y1), texel(x1, y1)]
+    }
+
     /// The filtered texels at `uv`, `C` (the image's channel count) values.
     #[inline]
     fn lookup<const C: usize>(&self, uv: Vec2) -> [f32; C] {

@@ -94,6 +94,19 @@ impl Texture {
         }
     }
 
+    /// The gradient of [`Texture::eval_1`] with respect to `(u, v)` (Mitsuba's `eval_1_grad`, which
+    /// `bumpmap` reads): a bitmap's ([`Bitmap::eval_1_grad`]); zero for a constant and a checkerboard, whose
+    /// value is flat wherever it is differentiable (Mitsuba has no `eval_1_grad` for them and refuses them
+    /// under a `bumpmap`; here they leave its normals unperturbed).
+    #[inline]
+    #[must_use]
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Constant(_) | Texture::Checkerboard(_) => Vec2::ZERO,
+        }
+    }
+
     /// Mitsuba's `mean()`, a single number: a bitmap's mean over its texels of [`luminance`] (or of its
     /// value, one channel), a constant's channel average, a checkerboard's average of its two colours'
     /// channel averages. (Mitsuba's `plastic` and `roughplastic` weigh their sampling by it.)

@@ -132,6 +132,29 @@ fn to_uv_applies_before_the_lookup() {
 }
 
 #[test]
+fn eval_1_grad_is_the_derivative_of_the_bilinear_lookup() {
+    // Central differences of eval_1 inside texel cells (away from the cell edges where the derivative jumps),
+    // with and without a to_uv (a diagonal one on this non-square image, where Mitsuba's order of the
+    // resolution and the transform agrees with the chain rule), and wrapping across the edge.
+    let scale = Mat3::from_cols(Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, -3.0, 0.0), Vec3::new(0.1, 0.2, 1.0));
+    for to_uv in [Mat3::IDENTITY, scale] {
+        let t = Texture::Bitmap(Bitmap::new(image_3x2(), FilterType::Bilinear, WrapMode::Repeat).with_to_uv(to_uv));
+        for uv in [Vec2::new(0.3, 0.6), Vec2::new(0.71, 0.13), Vec2::new(-0.02, 0.9), Vec2::new(0.95, 1.1)] {
+            let h = 1e-3f32;
+            let fd = Vec2::new(
+                (t.eval_1(uv + Vec2::new(h, 0.0)) - t.eval_1(uv - Vec2::new(h, 0.0))) / (2.0 * h),
+                (t.eval_1(uv + Vec2::new(0.0, h)) - t.eval_1(uv - Vec2::new(0.0, h))) / (2.0 * h),
+            );
+            let g = t.eval_1_grad(uv);
+            assert!((g - fd).abs().max_element() <= 2e-3 * (1.0 + fd.abs().max_element()), "{to_uv:?} at {uv}: {g} vs {fd}");
+        }
+    }
+    let nearest = Texture::Bitmap(Bitmap::new(image_3x2(), FilterType::Nearest, WrapMode::Repeat));
+    assert_eq!(nearest.eval_1_grad(Vec2::new(0.3, 0.6)), Vec2::ZERO);
+    assert_eq!(Texture::Constant(Vec3::ONE).eval_1_grad(Vec2::new(0.3, 0.6)), Vec2::ZERO);
+}
+
+#[test]
 fn eval_1_is_luminance_of_rgb_and_the_value_of_grey() {
     let b = Bitmap::new(image_3x2(), FilterType::Bilinear, WrapMode::Repeat);
     let uv = Vec2::new(0.3, 0.7);

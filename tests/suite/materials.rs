@@ -106,6 +106,20 @@ fn textures_mis_match_mitsuba() {
     matches_mitsuba("textures", Estimator::Mis, 64);
 }
 
+#[test]
+fn normalmap_pt_matches_mitsuba() {
+    // Measured at 1,024 spp: whole image 1.00001, every 8×8 block within 2.2 % (the worst under the mirror's
+    // caustic, which `pt` finds only through BSDF samples that hit the light).
+    matches_mitsuba("normalmap", Estimator::Pt, 1024);
+}
+
+#[test]
+fn normalmap_mis_matches_mitsuba() {
+    // The normal-mapped mirror's rippled caustic on the floor: photons leave it through the perturbed frame.
+    // Measured at 64 spp: whole image 0.9997, every block within 2.5 %.
+    matches_mitsuba("normalmap", Estimator::Mis, 64);
+}
+
 /// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
 /// reference to a texture that does not exist are errors at their keys.
 #[test]
@@ -117,6 +131,9 @@ fn texture_errors_name_their_keys() {
         ("bsdf = { type = \"diffuse\", reflectance = { texture = \"wood\" } }", "shape[0].bsdf.reflectance.texture", "unknown texture `wood`"),
         ("bsdf = { type = \"diffuse\", reflectance = { type = \"bitmap\", filename = \"missing.png\" } }", "shape[0].bsdf.reflectance.filename", "missing.png"),
         ("bsdf = { type = \"roughconductor\", alpha = { type = \"checkerboard\", color0 = 0, color1 = 0 } }", "shape[0].bsdf.alpha", "the texture's mean: the roughness alpha must be > 0"),
+        ("bsdf = { type = \"normalmap\", normalmap = [0.5, 0.5, 1], bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "must be a texture"),
+        ("bsdf = { type = \"normalmap\", bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "missing"),
+        ("bsdf = { type = \"bumpmap\", texture = { type = \"checkerboard\" }, scale = { type = \"checkerboard\" }, bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.scale", "cannot take a texture here"),
     ];
     for (bsdf, key, message) in cases {
         let text = format!("{base}{bsdf}\n");

@@ -451,3 +451,22 @@ fn serialized_shapes_in_xml_render_as_their_ply_twins() {
     let e = Scene::from_xml_str(&bad, &meshes, Path::new("bad.xml"), &BTreeMap::new()).err().expect("shape_index 2 of 2 shapes");
     assert_names(&e, &["bad.xml:13:", "property \"shape_index\"", "holds 2 shapes (shape_index 0 to 1)"]);
 }
+
+/// Mitsuba's `normalmap` and `bumpmap` in XML: the normal map at `normalmap` (inline or a `<ref>`), the
+/// bump map's one texture under any name (Mitsuba takes its nested texture whatever it is called), each
+/// around its nested bsdf, bound to the material's frame parameter.
+#[test]
+fn normalmap_and_bumpmap_read_from_xml() {
+    let xml = r#"<scene version="3.0.0">
+        <texture type="bitmap" id="n"><string name="filename" value="materials/textures/normals.png"/><boolean name="raw" value="true"/></texture>
+        <shape type="rectangle"><bsdf type="normalmap"><ref name="normalmap" id="n"/><bsdf type="diffuse"/></bsdf></shape>
+        <shape type="rectangle"><bsdf type="bumpmap"><float name="scale" value="0.5"/>
+            <texture type="bitmap" name="arbitrary"><string name="filename" value="materials/textures/height.png"/></texture>
+            <bsdf type="twosided"><bsdf type="roughplastic"/></bsdf></bsdf></shape>
+    </scene>"#;
+    let s = Scene::from_xml_str(xml, &repo_path("tests/data"), Path::new("maps.xml"), &BTreeMap::new()).unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<(&str, bool)> = s.materials.iter().map(|m| (m.template().type_name(), m.is_textured())).collect();
+    assert_eq!(kinds, [("normalmap", true), ("bumpmap", true)]);
+    let Bsdf::BumpMap(b) = s.materials[1].template() else { unreachable!() };
+    assert_eq!((b.scale, b.perturbed.bsdf.type_name()), (0.5, "twosided"));
+}

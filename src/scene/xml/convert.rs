@@ -521,12 +521,8 @@ impl<'a> Converter<'a> {
 
     fn bsdf_table(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
         let mut table = self.plugin_table(el, key)?;
-        let nested: &[&str] = match el.attr("type") {
-            Some("twosided") => &["bsdf"],
-            Some("blendbsdf") => &["bsdf_0", "bsdf_1"],
-            Some("mask") => &["bsdf"],
-            _ => &[],
-        };
+        // The keys of the nested bsdfs, in the order they are given: the type's own list (`bsdf::PLUGINS`).
+        let nested: &[&str] = el.attr("type").and_then(crate::bsdf::plugin).map_or(&[], |p| p.nested);
         let mut n = 0;
         for child in &el.children {
             if self.property_or_transform(el, child, key, &mut table)? {
@@ -534,7 +530,10 @@ impl<'a> Converter<'a> {
             }
             let refers_to = |tag: &str| child.tag == "ref" && child.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|r| r.tag == tag);
             if child.tag == "texture" || refers_to("texture") {
-                let name = child.required("name")?;
+                let name = match texture_key(el.attr("type").unwrap_or_default(), child.attr("name")) {
+                    Some(name) => name,
+                    None => child.required("name")?,
+                };
                 let value = self.texture_value(child, &join_key(key, name))?;
                 self.put(&mut table, key, el, child, name, value)?;
                 continue;
@@ -715,4 +714,14 @@ fn rfilter(c: &mut Converter, el: &Element) -> Result<Table, SceneError> {
         c.put(&mut table, key, el, child, name, value)?;
     }
     Ok(table)
+}
+
+/// The key a `<texture>` (or a `<ref>` to one) nested in a `<bsdf type="kind">` is read at: its `name`, except
+/// in a `bumpmap`, whose one texture Mitsuba takes under any name (or none), read at `texture`.
+pub(super) fn texture_key<'a>(kind: &str, name: Option<&'a str>) -> Option<&'a str> {
+    if kind == "bumpmap" {
+        Some("texture")
+    } else {
+        name
+    }
 }

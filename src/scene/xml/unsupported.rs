@@ -8,7 +8,7 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use super::convert::{ConvertOptions, CAUSTICS_PREFIX, SAMPLER_TYPES};
+use super::convert::{texture_key, ConvertOptions, CAUSTICS_PREFIX, SAMPLER_TYPES};
 use super::ignored;
 use super::integrators::{self, Reading};
 use super::tree::Element;
@@ -39,8 +39,6 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "bumpmap", "the nested BSDF with normals perturbed by a height texture", LATER_MATERIALS),
-    ("bsdf", "normalmap", "the nested BSDF with normals from a normal-map texture", LATER_MATERIALS),
     ("bsdf", "principled", "the Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "phong", "the modified Phong reflectance model", LATER_MATERIALS),
@@ -129,8 +127,8 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
                 push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
                 continue;
             }
-            if child.tag == "texture" && !keys.contains(&child.attr("name").unwrap_or_default()) {
-                let name = child.attr("name").unwrap_or_default();
+            let name = texture_key(kind, child.attr("name")).unwrap_or_default();
+            if child.tag == "texture" && !keys.contains(&name) {
                 push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
             }
             visit(child, options, found);
