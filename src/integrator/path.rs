@@ -291,7 +291,7 @@ impl<'a> PathTracer<'a> {
 
         // Emission from an area light that was hit.
         if let Some(light_index) = lights.light_of_prim(hit.prim) {
-            let le = lights.le_area(hit.prim, si.ng, wo_world);
+            let le = lights.le_area(hit.prim, si.ng, wo_world, || scene.tex_uv(&si));
             if le != Vec3::ZERO {
                 let light_pdf = || match prev {
                     Vertex::NonDelta { p, .. } => lights.pdf_li_area(hit.prim, p, si.p, si.ng),

@@ -1,11 +1,25 @@
 //! Area lights: a set of emissive triangles with one radiance, emitting on one side only, the side of the
 //! geometric normal `(p1 − p0) × (p2 − p0)` (Mitsuba's `area` emitter). Triangles are chosen ∝ area, then a
 //! point uniformly on the triangle, so the density over the light's surface is `pdf_a = 1/A`.
+//!
+//! The radiance may be a texture (Mitsuba's `area` with a `radiance` texture, src/emitters/area.cpp: `eval`
+//! reads the texture at the point's texture coordinates): every reading of the light — the emission a ray
+//! finds ([`AreaLight::le`]), NEE's sample ([`AreaLight::sample_li`]) and a photon's start
+//! ([`AreaLight::sample_le_with`]) — evaluates it at the point's uv (`texture::interpolate_uv` of the
+//! triangle's corner uvs at the point's barycentrics, the rule `Scene::tex_uv` applies at a hit). Positions
+//! stay uniform by area, so every density (`pdf_li`, the photon pass's `p_emit`) is the untextured light's
+//! and the MIS weights keep summing to one; Mitsuba instead samples positions ∝ the texture
+//! (`Texture::sample_position`, mapped onto the shape by `eval_parameterization`): the same expected image,
+//! a different noise. The power used to choose lights ([`AreaLight::power`]) is then `π·A·Y(L̄)`, `L̄` the
+//! texture's mean (over its texels; a checkerboard's two colours' average): exact when the uvs cover the
+//! texture once and uniformly by area (a rectangle), else only a selection weight, positive wherever the
+//! light emits, which is all the estimates need.
 
 use crate::sampling::warp::{square_to_cosine_hemisphere, square_to_uniform_triangle};
 use super::{luminance, EmissionSample, LightSample};
 use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, triangle_normal_area, Frame, Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
+use crate::texture::{interpolate_uv, Texture};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 #[derive(Clone, Debug)]
@@ -16,10 +30,20 @@ struct LightTriangle {
     n: Vec3,
 }
 
-/// One emitting shape (all its triangles share the radiance).
+/// What an area light emits on its front side.
+#[derive(Clone, Debug)]
+enum Radiance {
+    Constant(Vec3),
+    /// A texture (its image shared with every other user: `texture::ImageCache`) read at the point's uv;
+    /// `uvs[i]` are the texture coordinates of triangle `i`'s corners (`texture::BARYCENTRIC_UVS` for a
+    /// shape without any).
+    Textured { texture: Texture, uvs: Vec<[Vec2; 3]> },
+}
+
+/// One emitting shape (all its triangles share the radiance, constant or textured).
 #[derive(Clone, Debug)]
 pub struct AreaLight {
-    radiance: Vec3,
+    radiance: Radiance,
     triangles: Vec<LightTriangle>,
     /// Triangle selection ∝ area; `None` if the total area is 0.
     distribution: Option<Distribution1D>,
@@ -56,6 +80,19 @@ impl AreaLight {
     /// triangles are kept (so their primitive maps to this light) but never sampled.
     #[must_use]
     pub fn new(radiance: Vec3, triangles: Vec<(u32, [Vec3; 3])>) -> Self {
+        Self::with_radiance(Radiance::Constant(radiance), triangles)
+    }
+
+    /// An area light whose radiance is `texture`, read at the texture coordinates `uvs[i]` of triangle `i`'s
+    /// corners interpolated at a point's barycentrics (`texture::BARYCENTRIC_UVS` for a shape without
+    /// uvs). One `uvs` entry per triangle.
+    #[must_use]
+    pub fn textured(texture: Texture, triangles: Vec<(u32, [Vec3; 3])>, uvs: Vec<[Vec2; 3]>) -> Self {
+        assert_eq!(uvs.len(), triangles.len(), "one set of corner uvs per triangle");
+        Self::with_radiance(Radiance::Textured { texture, uvs }, triangles)
+    }
+
+    fn with_radiance(radiance: Radiance, triangles: Vec<(u32, [Vec3; 3])>) -> Self {
         let mut areas = Vec::with_capacity(triangles.len());
         let triangles: Vec<LightTriangle> = triangles
             .into_iter()
@@ -83,10 +120,37 @@ impl AreaLight {
         self.area
     }
 
-    /// Emitted radiance (on the front side).
+    /// Emitted radiance (on the front side): the constant, or a texture's mean (`Texture::mean_rgb`).
     #[must_use]
     pub fn radiance(&self) -> Vec3 {
-        self.radiance
+        match &self.radiance {
+            Radiance::Constant(c) => *c,
+            Radiance::Textured { texture, .. } => texture.mean_rgb(),
+        }
+    }
+
+    /// The largest radiance it emits anywhere, per channel (0: it emits nothing and may be left out).
+    #[must_use]
+    pub fn max_radiance(&self) -> Vec3 {
+        match &self.radiance {
+            Radiance::Constant(c) => *c,
+            Radiance::Textured { texture, .. } => texture.max(),
+        }
+    }
+
+    /// Whether the radiance is a texture.
+    #[must_use]
+    pub fn is_textured(&self) -> bool {
+        matches!(self.radiance, Radiance::Textured { .. })
+    }
+
+    /// The radiance at barycentrics `(b1, b2)` of triangle `i`.
+    #[inline]
+    fn radiance_on(&self, i: usize, b1: f32, b2: f32) -> Vec3 {
+        match &self.radiance {
+            Radiance::Constant(c) => *c,
+            Radiance::Textured { texture, uvs } => texture.eval_rgb(interpolate_uv(uvs[i], b1, b2)),
+        }
     }
 
     /// Global primitive indices of its triangles.
@@ -94,17 +158,22 @@ impl AreaLight {
         self.triangles.iter().map(|t| t.prim)
     }
 
-    /// Power Φ = π·A·Y(L), one-sided (method.md §2).
+    /// Power Φ = π·A·Y(L), one-sided (method.md §2); with a texture, `L` its mean (module docs).
     #[must_use]
     pub fn power(&self) -> f32 {
-        PI * self.area * luminance(self.radiance)
+        PI * self.area * luminance(self.radiance())
     }
 
-    /// Radiance leaving the light at a point with geometric normal `ng` toward `w_world` (0 on the back side).
+    /// Radiance leaving the light at a point with geometric normal `ng` toward `w_world` (0 on the back
+    /// side); `uv` gives the point's texture coordinates (`Scene::tex_uv`), asked only of a textured light.
+    #[inline]
     #[must_use]
-    pub fn le(&self, ng: Vec3, w_world: Vec3) -> Vec3 {
+    pub fn le(&self, ng: Vec3, w_world: Vec3, uv: impl FnOnce() -> Vec2) -> Vec3 {
         if ng.dot(w_world) > 0.0 {
-            self.radiance
+            match &self.radiance {
+                Radiance::Constant(c) => *c,
+                Radiance::Textured { texture, .. } => texture.eval_rgb(uv()),
+            }
         } else {
             Vec3::ZERO
         }
@@ -123,7 +192,7 @@ impl AreaLight {
     #[must_use]
     pub fn sample_li(&self, p_ref: Vec3, u: Vec2) -> Option<LightSample> {
         let (i, _, u_rest) = self.distribution.as_ref()?.sample_discrete(u.x);
-        let (t, p_light, _) = self.point_on(i, Vec2::new(u_rest, u.y));
+        let (t, p_light, b) = self.point_on(i, Vec2::new(u_rest, u.y));
         // One square root and one division serve the direction, the distance and the pdf's cosine.
         let d = p_light - p_ref;
         let dist2 = d.length_squared();
@@ -136,7 +205,7 @@ impl AreaLight {
         Some(LightSample {
             wi_world,
             dist,
-            li: self.radiance,
+            li: self.radiance_on(i, b[1], b[2]),
             pdf_w,
             p_light,
             n_light: t.n,
@@ -180,7 +249,7 @@ impl AreaLight {
             t_min: spawn_t_min(p_error, dir),
             n: t.n,
             dir,
-            le: self.radiance,
+            le: self.radiance_on(i, b[1], b[2]),
             pdf_a: self.pdf_a,
             pdf_w_dir,
         })

@@ -21,6 +21,8 @@ mod test_util;
 #[cfg(test)]
 mod tests_area;
 #[cfg(test)]
+mod tests_textured;
+#[cfg(test)]
 mod tests_delta;
 #[cfg(test)]
 mod tests_env;

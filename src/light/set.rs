@@ -167,11 +167,13 @@ impl LightSet {
     }
 
     /// Radiance leaving emissive triangle `prim` at a point with unit geometric normal `ng` toward
-    /// `w_world` (0 on the back side and for non-emissive triangles).
+    /// `w_world` (0 on the back side and for non-emissive triangles); `uv` gives the point's texture
+    /// coordinates (`Scene::tex_uv`), asked only where the light's radiance is a texture.
+    #[inline]
     #[must_use]
-    pub fn le_area(&self, prim: u32, ng: Vec3, w_world: Vec3) -> Vec3 {
+    pub fn le_area(&self, prim: u32, ng: Vec3, w_world: Vec3, uv: impl FnOnce() -> Vec2) -> Vec3 {
         match self.light_of_prim(prim).map(|i| &self.lights[i]) {
-            Some(Light::Area(a)) => a.le(ng, w_world),
+            Some(Light::Area(a)) => a.le(ng, w_world, uv),
             _ => Vec3::ZERO,
         }
     }

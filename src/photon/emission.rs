@@ -3,8 +3,8 @@
 //! Only a photon whose first hit is a delta surface becomes a caustic photon, so emission aims at the
 //! sphere `S_δ` around the delta triangles ([`crate::scene::Scene::delta_bounds`], enlarged by 10⁻³)
 //! instead of spreading photons over the whole hemisphere (issue 9 item 6, issue 13 §2):
-//! - a light `j` is chosen ∝ its power `Φⱼ` (area lights `π·A·Le`, env maps `π·R²·∫Le dω`; the `constant`
-//!   emitter emits no photons);
+//! - a light `j` is chosen ∝ its power `Φⱼ` (area lights `π·A·Le`, a textured one's mean `Le`: its photons
+//!   carry the texture at their start; env maps `π·R²·∫Le dω`; the `constant` emitter emits no photons);
 //! - **area light**: a point `y` uniform on the light (`1/A`), then a direction uniform in the cone
 //!   that `S_δ` subtends from `y` when that cone is narrower than a hemisphere (`cos θ_max > ½`), else
 //!   cosine-weighted about the normal (a light inside or near `S_δ`, e.g. a closed mirror box);
@@ -112,7 +112,7 @@ impl PhotonEmission {
             .lights()
             .iter()
             .map(|l| match l {
-                Light::Area(a) => PI * a.area() * luminance(a.radiance()),
+                Light::Area(a) => a.power(),
                 Light::Env(e) => PI * radius * radius * e.integral_luminance(),
                 Light::Constant { .. } => 0.0,
                 Light::Point(p) => p.power(),

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 
 use super::delta_light;
 use super::desc::{
-    AreaEmitterType, EmitterDesc, EmitterType, PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType, ToWorld,
-    TransformOp,
+    AreaEmitterType, EmitterDesc, EmitterType, PluginDesc, RadianceDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType,
+    ToWorld, TransformOp,
 };
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
@@ -33,6 +33,7 @@ use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
+use crate::texture::{Texture, BARYCENTRIC_UVS};
 
 /// Default sphere tessellation: 128 rings × 256 segments = 65,024 triangles. The chord error is at most
 /// radius·(1 − cos(π/128)) = 3.0e-4·radius (a conservative bound on the distance between the triangles and
@@ -73,7 +74,14 @@ struct ShapePlan {
     flat: bool,
     flip: bool,
     material: u32,
-    radiance: Option<Vec3>,
+    /// An area emitter's radiance.
+    radiance: Option<PlannedRadiance>,
+}
+
+/// An area emitter's radiance: one value, or a texture read at each point's uv (`light::AreaLight`).
+enum PlannedRadiance {
+    Constant(Vec3),
+    Texture(Texture),
 }
 
 /// A checked environment emitter.
@@ -182,16 +190,25 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         if (base + n) as u64 > u64::from(u32::MAX) {
             return Err(ctx.key_error(&plan.key, "the scene has more than 2^32 triangles"));
         }
-        tri_has_uv.extend(std::iter::repeat_n(placed.uvs.is_some(), n));
+        let has_uv = placed.uvs.is_some();
+        tri_has_uv.extend(std::iter::repeat_n(has_uv, n));
         placed.uvs.get_or_insert_with(|| vec![Vec2::ZERO; placed.positions.len()]);
         mesh.append(&placed);
         tri_material.extend(std::iter::repeat_n(plan.material, n));
         tri_flat.extend(std::iter::repeat_n(plan.flat, n));
-        if let Some(radiance) = plan.radiance {
+        if let Some(radiance) = &plan.radiance {
             let triangles: Vec<(u32, [Vec3; 3])> = (0..n).map(|i| ((base + i) as u32, placed.triangle(i))).collect();
-            let light = AreaLight::new(radiance, triangles);
-            // Lights that cannot emit anything are left out (zero radiance or zero area).
-            if radiance.max_element() > 0.0 && light.area() > 0.0 {
+            let light = match radiance {
+                PlannedRadiance::Constant(c) => AreaLight::new(*c, triangles),
+                PlannedRadiance::Texture(t) => {
+                    // The corners' uvs as `Scene::tex_uv` reads them at a hit (the barycentrics without uvs).
+                    let uvs = placed.uvs.as_deref().expect("uvs were filled in above");
+                    let corners = (0..n).map(|i| if has_uv { placed.indices[i].map(|k| uvs[k as usize]) } else { BARYCENTRIC_UVS }).collect();
+                    AreaLight::textured(t.clone(), triangles, corners)
+                }
+            };
+            // Lights that cannot emit anything are left out (zero radiance everywhere, or zero area).
+            if light.max_radiance().max_element() > 0.0 && light.area() > 0.0 {
                 lights.push(Light::Area(light));
             }
         }
@@ -455,13 +472,22 @@ fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, mat
     let to_world = to_world_matrix(ctx, &to_world_key, s.to_world.as_ref())?;
     let (linear, det) = invertible_linear_part(ctx, &to_world_key, to_world)?;
     let material = materials.index_for(ctx, &join_key(key, "bsdf"), s.bsdf.as_ref(), s.emitter.is_some())?;
-    let radiance = s
-        .emitter
-        .as_ref()
-        .map(|e| match e.kind {
-            AreaEmitterType::Area => ctx.radiance(&join_key(&join_key(key, "emitter"), "radiance"), e.radiance.0),
-        })
-        .transpose()?;
+    let radiance = match &s.emitter {
+        None => None,
+        Some(e) => {
+            let at = join_key(&join_key(key, "emitter"), "radiance");
+            Some(match (e.kind, &e.radiance) {
+                (AreaEmitterType::Area, RadianceDesc::Colour(c)) => PlannedRadiance::Constant(ctx.radiance(&at, *c)?),
+                (AreaEmitterType::Area, RadianceDesc::Texture(value)) => {
+                    let texture = materials.texture(ctx, &at, value)?;
+                    for (what, v) in [("minimum", texture.min()), ("maximum", texture.max())] {
+                        crate::props::radiance(v).map_err(|m| ctx.key_error(&at, format!("the texture's {what}: {m}")))?;
+                    }
+                    PlannedRadiance::Texture(texture)
+                }
+            })
+        }
+    };
     // Rectangles and cubes are flat by construction; meshes and spheres when face_normals = true.
     let flat = matches!(s.kind, ShapeType::Rectangle | ShapeType::Cube) || s.face_normals.unwrap_or(false);
     Ok(ShapePlan {

@@ -347,7 +347,44 @@ pub(crate) enum AreaEmitterType {
 pub(crate) struct AreaEmitterDesc {
     #[serde(rename = "type")]
     pub kind: AreaEmitterType,
-    pub radiance: Colour,
+    pub radiance: RadianceDesc,
+}
+
+/// An area emitter's `radiance`: a colour (a number or `[r, g, b]`), or a texture: a table, inline with its
+/// `type` or `{ texture = "<name>" }` (read by `scene::textures`).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum RadianceDesc {
+    Colour(Vec3),
+    Texture(toml::Value),
+}
+
+impl<'de> Deserialize<'de> for RadianceDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        const COLOUR: NumberOrTriple = NumberOrTriple("a number (gray), an array [r, g, b] or a texture table");
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RadianceDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                COLOUR.expecting(f)
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<RadianceDesc, E> {
+                COLOUR.visit_f64(v).map(RadianceDesc::Colour)
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<RadianceDesc, E> {
+                COLOUR.visit_i64(v).map(RadianceDesc::Colour)
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<RadianceDesc, E> {
+                COLOUR.visit_u64(v).map(RadianceDesc::Colour)
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<RadianceDesc, A::Error> {
+                COLOUR.visit_seq(seq).map(RadianceDesc::Colour)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RadianceDesc, A::Error> {
+                toml::Table::deserialize(MapAccessDeserializer::new(map)).map(|t| RadianceDesc::Texture(toml::Value::Table(t)))
+            }
+        }
+        deserializer.deserialize_any(V)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]

@@ -149,9 +149,7 @@ impl Scene {
             return si.uv;
         }
         let uvs = self.mesh.uvs.as_deref().expect("the scene's mesh has uvs");
-        let [a, b, c] = self.mesh.indices[prim].map(|k| uvs[k as usize]);
-        let (u, v) = (si.uv.x, si.uv.y);
-        (1.0 - u - v) * a + u * b + v * c
+        crate::texture::interpolate_uv(self.mesh.indices[prim].map(|k| uvs[k as usize]), si.uv.x, si.uv.y)
     }
 
     /// Reads the shading records of a batch of hits before any of them is shaded, so that their cache

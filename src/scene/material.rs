@@ -113,6 +113,15 @@ impl<'a> Materials<'a> {
         }
     }
 
+    /// A texture on a property outside the materials (an area emitter's `radiance`), read by the materials'
+    /// loader: an image a material and a light both use is decoded once. It is among the textures `finish`
+    /// returns.
+    pub(crate) fn texture(&mut self, ctx: &ErrorContext, at: &str, value: &toml::Value) -> Result<Texture, SceneError> {
+        let mut textures = self.textures.borrow_mut();
+        let (index, _) = textures.resolve(ctx, at, value)?;
+        Ok(textures.get(index).clone())
+    }
+
     fn push(&mut self, key: &str, read: Read) -> u32 {
         self.read.push((key.to_string(), read));
         (self.read.len() - 1) as u32

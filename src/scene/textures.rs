@@ -1,5 +1,6 @@
-//! Textures as the scene files give them, read for the material reader (`material`): a property whose
-//! value is a texture, inline or by the name of a `[texture.<name>]` table.
+//! Textures as the scene files give them, read for the material reader (`material`) and an area emitter's
+//! `radiance` (`build`, through the same loader): a property whose value is a texture, inline or by the
+//! name of a `[texture.<name>]` table.
 //!
 //! ```toml
 //! [texture.wood]
@@ -14,12 +15,16 @@
 //! [bsdf.tiles]
 //! type = "diffuse"
 //! reflectance = { type = "checkerboard", color0 = 0.2, color1 = 0.8 }   # an inline one
+//!
+//! [[shape]]
+//! type = "rectangle"
+//! emitter = { type = "area", radiance = { type = "bitmap", filename = "sky.exr" } }   # a textured light
 //! ```
 //!
 //! Mitsuba XML's `<texture>` elements and `<ref>`s to them become the same tables (`xml::convert`). Each
-//! texture the materials use is loaded once (a named one however many properties use it; an image file
-//! once however many textures name it, `texture::ImageCache`); a named texture nothing uses is checked
-//! but not loaded. Its keys, defaults and checks are the texture type's own (`crate::texture::PLUGINS`);
+//! texture the materials and lights use is loaded once (a named one however many properties use it; an
+//! image file once however many textures name it, `texture::ImageCache`); a named texture nothing uses is
+//! checked but not loaded. Its keys, defaults and checks are the texture type's own (`crate::texture::PLUGINS`);
 //! `to_uv` is read here, by the transform rules of every `to_world` (`transform`), and its 2-D part kept
 //! as Mitsuba keeps it (`Transform4f::extract`: rows and columns x, y and the translation).
 
@@ -93,6 +98,11 @@ impl<'a> Textures<'a> {
         let texture = spec.load(self.base_dir, &mut self.cache).map_err(|e| ctx.key_error(&join_key(key, "filename"), e.to_string()))?;
         self.textures.push(texture.with_to_uv(to_uv));
         Ok((self.textures.len() - 1) as u32)
+    }
+
+    /// Loaded texture `index`.
+    pub(crate) fn get(&self, index: u32) -> &Texture {
+        &self.textures[index as usize]
     }
 
     /// The loaded textures, in the order of their indices.

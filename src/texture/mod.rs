@@ -53,6 +53,21 @@ pub fn luminance(c: Vec3) -> f32 {
     c.x * 0.212671 + c.y * 0.715160 + c.z * 0.072169
 }
 
+/// The texture coordinates at barycentrics `(u, v)` of a triangle whose corners have `corners`:
+/// `(1 − u − v)·c₀ + u·c₁ + v·c₂` (Mitsuba's `Mesh::compute_surface_interaction`). The one rule for a hit
+/// (`Scene::tex_uv`) and for a point sampled on a textured area light (`light::AreaLight`); a triangle
+/// without texture coordinates passes [`BARYCENTRIC_UVS`], which gives `(u, v)` itself, exactly.
+#[inline]
+#[must_use]
+pub fn interpolate_uv(corners: [Vec2; 3], u: f32, v: f32) -> Vec2 {
+    let [a, b, c] = corners;
+    (1.0 - u - v) * a + u * b + v * c
+}
+
+/// The corners' texture coordinates of a triangle of a shape without any: [`interpolate_uv`] then gives
+/// the barycentrics, as Mitsuba's meshes without uvs do.
+pub const BARYCENTRIC_UVS: [Vec2; 3] = [Vec2::ZERO, Vec2::X, Vec2::Y];
+
 /// Mitsuba's `mean()` of a constant colour (`srgb`'s `dr::mean`, also its `eval_1`): the channel average.
 #[inline]
 fn channel_mean(c: Vec3) -> f32 {

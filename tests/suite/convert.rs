@@ -2,7 +2,8 @@
 //! the same scene as the original — the same settings, materials, triangles (vertices bit for bit) and
 //! lights — and renders the same image bit for bit (`mis`, same seed), through the XML too; and the XML
 //! written from the round-tripped TOML is the XML written from the original (a fixed point). The XML
-//! twins Mitsuba wrote (`tests/data/xml/`) convert to TOML that builds their scene.
+//! twins Mitsuba wrote (`tests/data/xml/`) convert to TOML that builds their scene. (`emitter-texture.toml`:
+//! textures inside emitters, inline and referenced.)
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -22,6 +23,7 @@ const SCENES: &[&str] = &[
     "tests/data/glossy-mirror.toml",
     "tests/data/mirror-box.toml",
     "tests/data/mirror-ceiling.toml",
+    "tests/data/materials/emitter-texture.toml",
 ];
 
 fn tmp(name: &str) -> PathBuf {

@@ -120,6 +120,19 @@ fn normalmap_mis_matches_mitsuba() {
     matches_mitsuba("normalmap", Estimator::Mis, 64);
 }
 
+#[test]
+fn emitter_texture_pt_matches_mitsuba() {
+    // Textured area lights: the camera sees them, NEE samples them and BSDF samples hit them.
+    matches_mitsuba("emitter-texture", Estimator::Pt, 512);
+}
+
+#[test]
+fn emitter_texture_mis_matches_mitsuba() {
+    // The glass sphere's caustic of the PFM light: photons carry the texture at their start, and T2's weight
+    // at a light point is the density of the photon that would have left it (positions uniform by area).
+    matches_mitsuba("emitter-texture", Estimator::Mis, 64);
+}
+
 /// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
 /// reference to a texture that does not exist are errors at their keys.
 #[test]
@@ -130,6 +143,8 @@ fn texture_errors_name_their_keys() {
         ("bsdf = { type = \"dielectric\", int_ior = { type = \"checkerboard\" } }", "shape[0].bsdf.int_ior", "this property cannot be a texture"),
         ("bsdf = { type = \"diffuse\", reflectance = { texture = \"wood\" } }", "shape[0].bsdf.reflectance.texture", "unknown texture `wood`"),
         ("bsdf = { type = \"diffuse\", reflectance = { type = \"bitmap\", filename = \"missing.png\" } }", "shape[0].bsdf.reflectance.filename", "missing.png"),
+        ("emitter = { type = \"area\", radiance = { texture = \"sky\" } }", "shape[0].emitter.radiance.texture", "unknown texture `sky`"),
+        ("emitter = { type = \"area\", radiance = { type = \"checkerboard\", color0 = 2 } }", "shape[0].emitter.radiance.color0", "must be in [0, 1]"),
         ("bsdf = { type = \"roughconductor\", alpha = { type = \"checkerboard\", color0 = 0, color1 = 0 } }", "shape[0].bsdf.alpha", "the texture's mean: the roughness alpha must be > 0"),
         ("bsdf = { type = \"normalmap\", normalmap = [0.5, 0.5, 1], bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "must be a texture"),
         ("bsdf = { type = \"normalmap\", bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "missing"),

@@ -272,6 +272,32 @@ fn assert_names(e: &SceneError, parts: &[&str]) {
     assert_eq!(e.file(), Path::new("bad.xml"));
 }
 
+/// An area emitter's `radiance` as a `<texture>` or a `<ref>` to one is a textured light (its mean and
+/// maximum are the texture's); a texture on another emitter, or on a property the area emitter lacks, is
+/// refused at its element.
+#[test]
+fn an_area_emitters_radiance_may_be_a_texture() {
+    let text = "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/></sensor>\n\
+        <texture type=\"checkerboard\" id=\"checks\"><rgb name=\"color0\" value=\"1, 0.5, 0\"/><rgb name=\"color1\" value=\"0\"/></texture>\n\
+        <shape type=\"rectangle\"><emitter type=\"area\"><ref name=\"radiance\" id=\"checks\"/></emitter></shape>\n\
+        <shape type=\"cube\"><emitter type=\"area\"><texture type=\"checkerboard\" name=\"radiance\"/></emitter></shape>\n\
+        <shape type=\"sphere\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"2\"/></emitter></shape>\n</scene>\n";
+    let scene = Scene::from_xml_str(text, Path::new("."), Path::new("lights.xml"), &BTreeMap::new()).unwrap_or_else(|e| panic!("{e}"));
+    let lights: Vec<_> = scene.lights.lights().iter().map(|l| match l {
+        Light::Area(a) => (a.is_textured(), a.radiance(), a.max_radiance()),
+        _ => panic!("an area light"),
+    }).collect();
+    assert_eq!(lights, [
+        (true, Vec3::new(0.5, 0.25, 0.0), Vec3::new(1.0, 0.5, 0.0)),
+        (true, Vec3::splat(0.3), Vec3::splat(0.4)),
+        (false, Vec3::splat(2.0), Vec3::splat(2.0)),
+    ]);
+    let e = xml_error("<emitter type=\"constant\">\n<texture type=\"checkerboard\" name=\"radiance\"/>\n</emitter>");
+    assert_names(&e, &["bad.xml:4:", "<texture type=\"checkerboard\" name=\"radiance\">", "a texture on a emitter"]);
+    let e = xml_error("<shape type=\"cube\"><emitter type=\"area\">\n<texture type=\"checkerboard\" name=\"intensity\"/>\n</emitter></shape>");
+    assert_names(&e, &["bad.xml:4:", "`intensity` does not apply to emitter type `area` (its keys: radiance)"]);
+}
+
 #[test]
 fn errors_name_file_line_and_plugin_or_property() {
     // Unknown plugin type.

@@ -528,14 +528,7 @@ impl<'a> Converter<'a> {
             if self.property_or_transform(el, child, key, &mut table)? {
                 continue;
             }
-            let refers_to = |tag: &str| child.tag == "ref" && child.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|r| r.tag == tag);
-            if child.tag == "texture" || refers_to("texture") {
-                let name = match texture_key(el.attr("type").unwrap_or_default(), child.attr("name")) {
-                    Some(name) => name,
-                    None => child.required("name")?,
-                };
-                let value = self.texture_value(child, &join_key(key, name))?;
-                self.put(&mut table, key, el, child, name, value)?;
+            if self.texture_property(el, child, key, &mut table)? {
                 continue;
             }
             if !matches!(child.tag.as_str(), "bsdf" | "ref") {
@@ -615,7 +608,7 @@ impl<'a> Converter<'a> {
             let value = if slot == "bsdf" {
                 self.bsdf_value(child, &slot_key)?
             } else {
-                Value::Table(self.leaf_plugin(self.deref(child, "emitter")?, &slot_key)?)
+                Value::Table(self.emitter_table(self.deref(child, "emitter")?, &slot_key)?)
             };
             table.insert(slot.into(), value);
         }
@@ -625,12 +618,44 @@ impl<'a> Converter<'a> {
 
     fn emitter(&mut self, el: &Element) -> Result<(), SceneError> {
         let key = join_index("emitter", self.emitters.len());
-        let table = self.leaf_plugin(el, &key)?;
+        let table = self.emitter_table(el, &key)?;
         self.emitters.push(Value::Table(table));
         Ok(())
     }
 
-    /// A plugin with properties and transforms but no nested plugins (emitters).
+    /// An emitter: properties, a transform, and textures on properties (an area emitter's `radiance`:
+    /// `<texture name="radiance">` or a `<ref name="radiance">` to one; the unsupported report refuses
+    /// them elsewhere).
+    fn emitter_table(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
+        let mut table = self.plugin_table(el, key)?;
+        for child in &el.children {
+            if self.property_or_transform(el, child, key, &mut table)? {
+                continue;
+            }
+            if !self.texture_property(el, child, key, &mut table)? {
+                return Err(unsupported(child, el));
+            }
+        }
+        Ok(table)
+    }
+
+    /// A `<texture>` child of `el`, or a `<ref>` to one, put in `table` under its `name`; `false` for any
+    /// other child.
+    fn texture_property(&mut self, el: &Element, child: &Element, key: &str, table: &mut Table) -> Result<bool, SceneError> {
+        let refers_to_texture = child.tag == "ref" && child.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|r| r.tag == "texture");
+        if child.tag != "texture" && !refers_to_texture {
+            return Ok(false);
+        }
+        let name = match texture_key(el.attr("type").unwrap_or_default(), child.attr("name")) {
+            Some(name) => name,
+            None => child.required("name")?,
+        };
+        let value = self.texture_value(child, &join_key(key, name))?;
+        self.put(table, key, el, child, name, value)?;
+        Ok(true)
+    }
+
+    /// A plugin with properties and transforms but no nested plugins (textures).
     fn leaf_plugin(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
         let mut table = self.plugin_table(el, key)?;
         for child in &el.children {

@@ -123,7 +123,8 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
                 push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
             }
         } else {
-            if child.tag == "texture" && tag != "bsdf" {
+            // Textures go on BSDF properties and on an area emitter's radiance.
+            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && kind == "area") {
                 push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
                 continue;
             }
