@@ -1,6 +1,7 @@
 //! `caustica info SCENE.toml...`: what a render of the scene would do, without rendering: film and
-//! settings, triangles, materials, lights, whether a photon pass will run (and why not), and the memory
-//! the largest structures will need.
+//! settings, triangles, materials, lights and their total power (a textured area light's: `π·A·Y` of its
+//! texture's mean, `light::area`), whether a photon pass will run (and why not), and the memory the largest
+//! structures will need.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -43,6 +44,7 @@ fn bsdf_kind(b: &Bsdf) -> &'static str {
 
 fn light_kind(l: &Light) -> &'static str {
     match l {
+        Light::Area(a) if a.is_textured() => "textured area",
         Light::Area(_) => "area",
         Light::Env(_) => "envmap",
         Light::Constant { .. } => "constant",

@@ -1,10 +1,11 @@
 //! Tests of textured area lights in a scene (Mitsuba's `area` emitter with a `radiance` texture): every
 //! reading of the light sees the texture at the same point — NEE's sample, the emission a ray finds there
 //! (`LightSet::le_area` at `Scene::tex_uv`, what the path tracer reads), a photon's start — on a shape with
-//! uvs (a rectangle, a bitmap) and one without (an OBJ quad: its barycentrics, a checkerboard); and the
-//! direct light at a point estimated by NEE alone, by BSDF sampling alone and by both under the power
-//! heuristic agree (two techniques of one integral whose weights sum to one), while lights of the textures'
-//! mean radiance give a different answer (the agreement is the texture's, not the mean's).
+//! uvs (a rectangle, a bitmap) and one without (an OBJ quad: its barycentrics, a checkerboard), with T2's
+//! density at a photon's start equal to the photon's (`mis`'s weights sum to one); and the direct light at
+//! a point estimated by NEE alone, by BSDF sampling alone and by both under the power heuristic agree (two
+//! techniques of one integral whose weights sum to one), while lights of the textures' mean radiance give a
+//! different answer (the agreement is the texture's, not the mean's).
 
 use super::test_util::Mean;
 use super::*;
@@ -123,10 +124,13 @@ fn nee_hits_and_photons_read_the_texture_at_one_point() {
         let Some(st) = em.sample(lights, s.next_1d(), s.next_2d(), s.next_2d(), s.next_1d()) else { continue };
         let es = st.emission;
         photons += 1;
-        let (_, seen, _) = emission_seen(&scene, &accel, &Ray::new(es.origin + 1e-3 * es.n, -es.n)).expect("the start is on a light");
+        let (light, seen, _) = emission_seen(&scene, &accel, &Ray::new(es.origin + 1e-3 * es.n, -es.n)).expect("the start is on a light");
         if close(seen, es.le) { agree += 1 } else { differ += 1 }
-        // Power × N × p_emit is the radiance at the start (method.md §2, §4).
+        // Power × N × p_emit is the radiance at the start (method.md §2, §4), and T2's density at the start
+        // is the photon's (both sides of `mis`'s weight read one p_emit: w₁ + w₂ = 1).
         assert!(close(st.power_n * st.pdf_emit, es.le), "{} vs {}", st.power_n * st.pdf_emit, es.le);
+        let t2 = em.pdf_emit_area(light, es.origin, es.n, es.dir);
+        assert!((t2 / st.pdf_emit - 1.0).abs() < 1e-3, "light {light}: sampled p_emit {} vs T2's {t2}", st.pdf_emit);
     }
     println!("{agree} agree, {differ} differ, {photons} photons, {} distinct radiances", distinct.len());
     assert!(photons > 5_000 && agree > 20_000, "{photons} photons, {agree} points checked");
