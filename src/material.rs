@@ -21,7 +21,7 @@
 use std::borrow::Cow;
 
 use crate::bsdf::{Bsdf, ParamMut, ParamVisitor};
-use crate::math::Vec3;
+use crate::props::Textured;
 
 /// One textured parameter: its number in the walk of [`Bsdf::visit_params`] and its texture (an index the
 /// caller of [`Material::bsdf_at`] resolves).
@@ -51,14 +51,6 @@ impl Facts {
     }
 }
 
-/// What the material layer needs to know of a texture before any hit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TextureRange {
-    /// Mean of its `eval_1` (what a textured number is set to when deciding the [`Facts`]).
-    pub mean_1: f32,
-    /// Per-channel maximum of its `eval`.
-    pub max: Vec3,
-}
 
 /// A material: a template BSDF and the textures bound to its parameters (module documentation).
 #[derive(Clone, Debug, PartialEq)]
@@ -86,8 +78,9 @@ impl Material {
 
     /// `template` with the textures `bound` to its parameters, each named by its path (`reflectance`,
     /// `bsdf_0.reflectance`: the keys of [`Bsdf::visit_params`], nested keys joined by dots); `range` gives
-    /// each bound texture's [`TextureRange`]. A path no parameter has is an error, naming the ones it has.
-    pub fn textured(template: Bsdf, bound: &[(String, u32)], range: impl Fn(u32) -> TextureRange) -> Result<Self, NotTexturable> {
+    /// each bound texture's summary (`Texture::summary`: its maximum colour and mean number decide the
+    /// [`Facts`]). A path no parameter has is an error, naming the ones it has.
+    pub fn textured(template: Bsdf, bound: &[(String, u32)], range: impl Fn(u32) -> Textured) -> Result<Self, NotTexturable> {
         let mut paths = Paths::default();
         let mut walked = template.clone();
         walked.visit_params(&mut paths);
@@ -205,13 +198,14 @@ impl ParamVisitor for Paths {
 mod tests {
     use super::*;
     use crate::bsdf::{Blend, Diffuse, Plastic, TwoSided};
+    use crate::math::Vec3;
 
     fn diffuse(r: f32) -> Bsdf {
         Bsdf::Diffuse(Diffuse { reflectance: Vec3::splat(r) })
     }
 
-    fn range(max: f32) -> impl Fn(u32) -> TextureRange {
-        move |_| TextureRange { mean_1: 0.5 * max, max: Vec3::splat(max) }
+    fn range(max: f32) -> impl Fn(u32) -> Textured {
+        move |_| Textured { mean: Vec3::splat(0.5 * max), mean_1: 0.5 * max, max: Vec3::splat(max) }
     }
 
     #[test]

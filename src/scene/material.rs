@@ -19,7 +19,7 @@ use super::plugins::{self, Role};
 use super::spans::join_key;
 use super::textures::Textures;
 use crate::bsdf::{self, Bsdf, Diffuse};
-use crate::material::{Material, TextureRange};
+use crate::material::Material;
 use crate::texture::Texture;
 use crate::math::Vec3;
 
@@ -134,10 +134,7 @@ impl<'a> Materials<'a> {
         let mut materials = Vec::with_capacity(self.read.len());
         for (key, Read { bsdf, bound }) in self.read {
             let kind = bsdf.type_name();
-            let m = Material::textured(bsdf, &bound, |t| {
-                let t = &textures[t as usize];
-                TextureRange { mean_1: t.mean(), max: t.max() }
-            })
+            let m = Material::textured(bsdf, &bound, |t| textures[t as usize].summary())
             .map_err(|e| {
                 let list = if e.texturable.is_empty() { "none".to_string() } else { e.texturable.join(", ") };
                 ctx.key_error(&join_key(&key, &e.path), format!("caustica's {kind} cannot take a texture here (the properties it can texture: {list})"))

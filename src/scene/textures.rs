@@ -88,8 +88,7 @@ impl<'a> Textures<'a> {
                 self.load(ctx, at, &d)?
             }
         };
-        let t = &self.textures[index as usize];
-        Ok((index, Textured { mean: t.mean_rgb(), mean_1: t.mean(), max: t.max() }))
+        Ok((index, self.textures[index as usize].summary()))
     }
 
     /// Loads the texture `d` at `key` describes.

@@ -43,7 +43,7 @@ pub use decode::FileFormat;
 pub use texels::{srgb_to_linear, StorageFormat, TextureImage};
 
 use crate::math::{Mat3, Vec2, Vec3};
-use crate::props::{Plugin, PropError, Props};
+use crate::props::{Plugin, PropError, Props, Textured};
 
 /// Mitsuba's `luminance` of a linear RGB colour (include/mitsuba/core/spectrum.h): what `eval_1` and
 /// `mean` of an RGB bitmap report.
@@ -132,6 +132,13 @@ impl Texture {
             Texture::Bitmap(b) => b.image().mean(),
             Texture::Checkerboard(c) => 0.5 * (channel_mean(c.color0) + channel_mean(c.color1)),
         }
+    }
+
+    /// What a plugin's constructor and the material layer see of the texture before any hit
+    /// (`props::Textured`): its per-channel mean, its mean number and its per-channel maximum.
+    #[must_use]
+    pub fn summary(&self) -> Textured {
+        Textured { mean: self.mean_rgb(), mean_1: self.mean(), max: self.max() }
     }
 
     /// Each channel's mean over the texture (a bitmap: over its texels; a checkerboard: half of each
