@@ -13,11 +13,15 @@
 //! | `rectangle` | — | [-1, 1]² at z = 0, facing +z |
 //! | `cube` | — | [-1, 1]³ |
 //! | `sphere` | `center`, `radius`, `rings`, `segments`, `face_normals` | a tessellated sphere |
+//! | `disk` | — | the unit disk at z = 0, facing +z, a fan of 256 triangles |
+//! | `cylinder` | `p0`, `p1`, `radius` | an open tube, 256 quads around |
 //!
 //! A new shape type is a file here (its type, its [`ShapeModel`], its `PLUGIN`) and its line in
 //! `shape_types!` below.
 
 mod cube;
+mod cylinder;
+mod disk;
 mod obj;
 mod ply;
 mod rectangle;
@@ -96,6 +100,8 @@ shape_types! {
     Rectangle(rectangle::Rectangle),
     Cube(cube::Cube),
     Sphere(sphere::Sphere),
+    Disk(disk::Disk),
+    Cylinder(cylinder::Cylinder),
 }
 
 /// The keys every shape takes beside its own, read by the scene builder.

@@ -131,9 +131,9 @@ fn bad_keys_and_types_name_the_key() {
             "16 numbers",
         ),
         (
-            shape_with("emitter = { type = \"area\" }"),
-            "shape[0].emitter",
-            "missing field `radiance`",
+            shape_with("emitter = { type = \"point\" }"),
+            "shape[0].emitter.type",
+            "a shape's emitter is an `area` emitter",
         ),
         (
             minimal("[[emitter]]\ntype = \"envmap\"\nradiance = 2\nfilename = \"x.exr\""),

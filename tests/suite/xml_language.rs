@@ -200,7 +200,7 @@ fn everything_unsupported_is_reported_at_once() {
 {SENSOR}
 <texture type="mesh_attribute" id="checks"/>
 <bsdf type="principled" id="floor"/>
-<shape type="disk"/>
+<shape type="shapegroup"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
 <medium type="homogeneous" id="fog"/>
 </scene>"#
@@ -212,7 +212,7 @@ fn everything_unsupported_is_reported_at_once() {
         (2, "integrator type \"guided_path\""),
         (6, "texture type \"mesh_attribute\" is not supported yet"),
         (7, "bsdf type \"principled\" is not supported yet"),
-        (8, "shape type \"disk\""),
+        (8, "shape type \"shapegroup\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
     ] {

@@ -49,8 +49,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("bsdf", "polarizer", "a linear polarizer", OUT_OF_SCOPE),
     ("bsdf", "retarder", "a polarization retarder", OUT_OF_SCOPE),
     ("bsdf", "circular", "a circular polarizer", OUT_OF_SCOPE),
-    ("shape", "disk", "an analytic disk", LATER_SHAPES),
-    ("shape", "cylinder", "an analytic cylinder", LATER_SHAPES),
     ("shape", "shapegroup", "a group of shapes to instance", LATER_SHAPES),
     ("shape", "instance", "an instance of a shapegroup", LATER_SHAPES),
     ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),
