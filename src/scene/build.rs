@@ -14,7 +14,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::desc::{BsdfRef, PluginDesc, SceneFile, SensorDesc, SensorType, ToWorld, TransformOp};
+use super::desc::{PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
 use super::textures::Textures;
@@ -30,7 +30,6 @@ use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::emitter::{self, Emitter};
 use crate::mesh::TriangleMesh;
-use crate::props::Props;
 use crate::shape::{self, LoadError, Shape, ShapeModel};
 use crate::texture::{Texture, BARYCENTRIC_UVS};
 
@@ -357,46 +356,28 @@ fn rfilter(ctx: &ErrorContext, d: &PluginDesc) -> Result<PixelFilter, SceneError
 
 /// A shape's table at `key` → its plan: the shape type's own keys read by its plugin (`crate::shape`), the
 /// keys every shape takes (`shape::COMMON_KEYS`) read here.
-fn plan_shape(ctx: &ErrorContext, key: &str, d: &PluginDesc, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
-    let mut own = PluginDesc { kind: d.kind.clone(), props: d.props.clone() };
-    let mut common = toml::Table::new();
-    for k in shape::COMMON_KEYS {
-        if let Some(v) = own.props.remove(*k) {
-            common.insert(k.to_string(), v);
-        }
-    }
-    let shape = plugins::build(ctx, key, Role::Shape, shape::PLUGINS, &own, |_, _| Ok(()))?;
+fn plan_shape(ctx: &ErrorContext, key: &str, d: &ShapeDesc, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
+    let shape = plugins::build(ctx, key, Role::Shape, shape::PLUGINS, &d.plugin, |_, _| Ok(()))?;
     let to_world_key = join_key(key, "to_world");
-    let to_world = match common.get("to_world") {
-        Some(v) => to_world_value(ctx, &to_world_key, v)?,
-        None => Mat4::IDENTITY,
-    };
+    let to_world = to_world_matrix(ctx, &to_world_key, d.to_world.as_ref())?;
     let (linear, det) = invertible_linear_part(ctx, &to_world_key, to_world)?;
-    let flip = Props::<()>::new(&common, shape::COMMON_KEYS, Vec::new())
-        .bool_or("flip_normals", false)
-        .map_err(|e| ctx.prop_error(key, e))?;
     let bsdf_key = join_key(key, "bsdf");
-    let bsdf = common.get("bsdf").map(BsdfRef::from_value).transpose().map_err(|m| ctx.key_error(&bsdf_key, m))?;
-    let emitter = common.get("emitter");
-    let material = materials.index_for(ctx, &bsdf_key, bsdf.as_ref(), emitter.is_some())?;
-    let radiance = emitter.map(|e| area_emitter(ctx, &join_key(key, "emitter"), e, materials)).transpose()?;
+    let material = materials.index_for(ctx, &bsdf_key, d.bsdf.as_ref(), d.emitter.is_some())?;
+    let radiance = d.emitter.as_ref().map(|e| area_emitter(ctx, &join_key(key, "emitter"), e, materials)).transpose()?;
     Ok(ShapePlan {
         key: key.to_string(),
         shape,
         to_world,
         linear,
         det,
-        flip,
+        flip: d.flip_normals.unwrap_or(false),
         material,
         radiance,
     })
 }
 
 /// A shape's `emitter` at `key`: an `area` emitter (`crate::emitter`), its radiance a colour or a texture.
-fn area_emitter(ctx: &ErrorContext, key: &str, value: &toml::Value, materials: &mut Materials) -> Result<PlannedRadiance, SceneError> {
-    let table = value.as_table().ok_or_else(|| {
-        ctx.key_error(key, format!("invalid type: {}, expected an emitter table (`{{ type = \"area\", radiance = … }}`)", value.type_str()))
-    })?;
+fn area_emitter(ctx: &ErrorContext, key: &str, table: &toml::Table, materials: &mut Materials) -> Result<PlannedRadiance, SceneError> {
     let d = PluginDesc::from_table(table.clone()).map_err(|m| ctx.key_error(key, m))?;
     if d.kind != emitter::AREA && emitter::plugin(&d.kind).is_some() {
         let message = format!("a shape's emitter is an `area` emitter; a `{}` emitter stands alone ([[emitter]] in TOML, <emitter> outside any <shape> in XML)", d.kind);

@@ -29,9 +29,8 @@ pub(crate) struct SceneFile {
     /// Named textures, referenced from a property as `{ texture = "<name>" }` (`scene::textures`).
     #[serde(default)]
     pub texture: BTreeMap<String, PluginDesc>,
-    /// Shapes (`crate::shape`: their types and keys; `scene::build` reads the keys every shape takes).
     #[serde(default)]
-    pub shape: Vec<PluginDesc>,
+    pub shape: Vec<ShapeDesc>,
     /// Emitters that stand alone (`crate::emitter`); area emitters are a shape's `emitter`.
     #[serde(default)]
     pub emitter: Vec<PluginDesc>,
@@ -150,6 +149,49 @@ impl PluginDesc {
 impl<'de> Deserialize<'de> for PluginDesc {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         PluginDesc::from_table(toml::Table::deserialize(deserializer)?).map_err(D::Error::custom)
+    }
+}
+
+/// A `[[shape]]` table: the keys every shape takes (`crate::shape::COMMON_KEYS`), read here as they stream
+/// from the document so that an error inside one keeps its exact place, and the shape type's own table
+/// (`crate::shape`: its type reads its keys).
+#[derive(Debug)]
+pub(crate) struct ShapeDesc {
+    pub plugin: PluginDesc,
+    pub to_world: Option<ToWorld>,
+    pub bsdf: Option<BsdfRef>,
+    /// An area emitter's table (`crate::emitter`).
+    pub emitter: Option<toml::Table>,
+    pub flip_normals: Option<bool>,
+}
+
+impl<'de> Deserialize<'de> for ShapeDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ShapeDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a shape table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ShapeDesc, A::Error> {
+                let (mut to_world, mut bsdf, mut emitter, mut flip_normals) = (None, None, None, None);
+                let mut own = toml::Table::new();
+                while let Some(key) = map.next_key::<String>()? {
+                    match key.as_str() {
+                        "to_world" => to_world = Some(map.next_value()?),
+                        "bsdf" => bsdf = Some(map.next_value()?),
+                        "emitter" => emitter = Some(map.next_value()?),
+                        "flip_normals" => flip_normals = Some(map.next_value()?),
+                        _ => {
+                            own.insert(key, map.next_value()?);
+                        }
+                    }
+                }
+                let plugin = PluginDesc::from_table(own).map_err(A::Error::custom)?;
+                Ok(ShapeDesc { plugin, to_world, bsdf, emitter, flip_normals })
+            }
+        }
+        deserializer.deserialize_map(V)
     }
 }
 
