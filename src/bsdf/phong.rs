@@ -192,7 +192,7 @@ impl Model for Phong {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::props::Textured;
     use crate::sampler::Sampler;
