@@ -125,12 +125,15 @@ impl Model for Ward {
             WardVariant::WardDuer => 1.0 / (4.0 * PI * au * av * wo.z * wi.z),
             WardVariant::Balanced => h.length_squared() / (PI * au * av * (h.z * h.z) * (h.z * h.z)),
         };
+        // (`c` may overflow at grazing angles where `e` is 0: the NaN fails the test and counts 0.)
         let spec = c * e;
         let spec = if spec > MIN_SPECULAR { spec } else { 0.0 };
         let f = (self.specular_reflectance * spec + self.diffuse_reflectance * FRAC_1_PI) * self.energy_scale;
         // The half-vector density D(ĥ)·ĥ_z = e/(π α_u α_v ĥ_z³) over 4 (wo·ĥ).
+        // At grazing `wo` and `wi` (ĥ_z³ underflowing) the lobe's exponent has already made `e` 0.
         let hn = h.normalize();
-        let spec_pdf = e / (4.0 * PI * au * av * wo.dot(hn) * (hn.z * hn.z * hn.z));
+        let denom = 4.0 * PI * au * av * wo.dot(hn) * (hn.z * hn.z * hn.z);
+        let spec_pdf = if e > 0.0 && denom > 0.0 { e / denom } else { 0.0 };
         let w = self.specular_weight;
         (f, w * spec_pdf + (1.0 - w) * wi.z * FRAC_1_PI)
     }
