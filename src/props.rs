@@ -223,6 +223,13 @@ impl<'a, C> Props<'a, C> {
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(reflectance).map_err(|m| PropError::new(key, m)))
     }
 
+    /// The per-channel maximum of the colour at `key` when it is a texture (a constant's maximum is its
+    /// value, which the caller has): what Mitsuba 0.6's `ensureEnergyConservation` reads (`getMaximum`).
+    #[must_use]
+    pub fn texture_max(&self, key: &str) -> Option<Vec3> {
+        self.texture(key).map(|t| t.max)
+    }
+
     /// An RGB radiance (each component finite and ≥ 0), or `default` when absent.
     pub fn radiance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
         if let Some(t) = self.textured_colour(key, radiance) {

@@ -9,8 +9,8 @@
 //!   computed from either side agree bit for bit.
 //! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
 //!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
-//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor`, `RoughConductor`, `Plastic` and
-//!   `RoughPlastic` reflect only when
+//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor`, `RoughConductor`, `Plastic`,
+//!   `RoughPlastic` (and Mitsuba 0.6's `Phong` and `Ward`, as 0.6's) reflect only when
 //!   `wo` and `wi` are both above the surface (+z); below, `f = 0`, `pdf_w = 0` and `sample → None`.
 //!   `TwoSided` (Mitsuba's `twosided`) mirrors a configuration below the surface to +z, so its inner BSDF
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
@@ -44,6 +44,7 @@ mod normalmap;
 mod null;
 mod params;
 mod perturbed;
+mod phong;
 mod plastic;
 mod rough_coating;
 mod roughconductor;
@@ -51,6 +52,7 @@ mod roughdielectric;
 mod roughplastic;
 mod thindielectric;
 mod twosided;
+mod ward;
 #[cfg(test)]
 mod tests;
 
@@ -68,6 +70,7 @@ pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use null::Null;
+pub use phong::Phong;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -75,6 +78,7 @@ pub use roughplastic::RoughPlastic;
 pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use ward::{Ward, WardVariant};
 
 use crate::math::{Vec2, Vec3};
 
@@ -217,6 +221,8 @@ bsdf_types! {
     Null(null::Null),
     NormalMap(normalmap::NormalMap),
     BumpMap(bumpmap::BumpMap),
+    Phong(phong::Phong),
+    Ward(ward::Ward),
 }
 
 /// The plugin of the BSDF type Mitsuba names `name`.

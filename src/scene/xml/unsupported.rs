@@ -41,7 +41,6 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("bsdf", "principled", "the Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
-    ("bsdf", "phong", "the modified Phong reflectance model", LATER_MATERIALS),
     ("bsdf", "mixturebsdf", "a weighted mixture of BSDFs", LATER_MATERIALS),
     ("bsdf", "hair", "a hair fibre scattering model", OUT_OF_SCOPE),
     ("bsdf", "measured", "a measured (tabulated) BSDF", OUT_OF_SCOPE),
