@@ -45,6 +45,8 @@ mod null;
 mod params;
 mod perturbed;
 mod plastic;
+mod principled;
+mod principled_lobes;
 mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
@@ -69,6 +71,7 @@ pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use null::Null;
 pub use plastic::Plastic;
+pub use principled::{Principled, SamplingRates};
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -211,6 +214,7 @@ bsdf_types! {
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
     RoughPlastic(roughplastic::RoughPlastic),
+    Principled(principled::Principled),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),
