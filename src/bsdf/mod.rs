@@ -16,6 +16,9 @@
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
+//! - `Principled` (Mitsuba 3's `principled`): its diffuse, sheen and clearcoat lobes reflect from the front
+//!   only, its main specular lobe on both sides; with a transmitting share (`spec_trans`) it refracts as
+//!   `RoughDielectric` does (interior −z), without one nothing scatters from behind.
 //! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
 //!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
 //!   hit's geometry; they are not reciprocal (nor are Mitsuba's).

@@ -461,4 +461,53 @@ pub(super) mod tests {
         }
         eprintln!("largest relative difference from Mitsuba's eval: {worst:e}");
     }
+
+    fn err(text: &str) -> PropError {
+        let table: toml::Table = text.parse().unwrap();
+        build(Props::new(&table, PLUGIN.keys, Vec::new())).err().unwrap_or_else(|| panic!("{text}: accepted"))
+    }
+
+    fn of(b: Bsdf) -> Principled {
+        let Bsdf::Principled(p) = b else { panic!("{b:?}") };
+        p
+    }
+
+    /// Mitsuba's defaults and its rules for `eta`, `specular` and the transmission flag.
+    #[test]
+    fn keys_read_as_mitsuba_reads_them() {
+        let p = of(parse(""));
+        assert_eq!((p.base_color, p.roughness, p.metallic, p.spec_trans, p.clearcoat_gloss), (Vec3::splat(0.5), 0.5, 0.0, 0.0, 0.0));
+        assert!((p.eta - 1.5).abs() < 1e-6 && !p.has_spec_trans && p.rates == SamplingRates::default());
+        assert_eq!((p.distribution.alpha_u, p.distribution.alpha_v), (0.25, 0.25));
+        // η = 1 or specular = 0 cannot refract: Mitsuba nudges them where the transmission lobe exists,
+        // which `spec_trans = 0` (a number) does not make.
+        assert_eq!(of(parse("eta = 1\nspec_trans = 0.5")).eta, 1.001);
+        assert_eq!(of(parse("eta = 1\nspec_trans = 0")).eta, 1.0);
+        assert!(!of(parse("spec_trans = 0")).has_spec_trans && of(parse("spec_trans = 0.1")).has_spec_trans);
+        assert!((of(parse("specular = 0\nspec_trans = 1")).eta - eta_of_specular(1e-3)).abs() < 1e-7);
+        assert_eq!(of(parse("specular = 0")).eta, 1.0);
+        assert_eq!(err("eta = 1.5\nspecular = 0.5").key, "specular");
+        assert_eq!(err("roughness = 1.5").key, "roughness");
+        assert_eq!(err("base_color = [1, 2, 0]").key, "base_color");
+        assert_eq!(err("clearcoat_sampling_rate = -1").key, "clearcoat_sampling_rate");
+        assert_eq!(err("eta = 0").key, "eta");
+        // A textured roughness: the distribution follows it.
+        let mut b = parse("roughness = 0.2");
+        b.visit_params(&mut SetFloat("roughness", 0.8));
+        b.params_changed();
+        let p = of(b);
+        assert!((p.distribution.alpha_u - 0.64).abs() < 1e-6);
+    }
+
+    /// A visitor that sets the number `key` to a value.
+    struct SetFloat(&'static str, f32);
+
+    impl ParamVisitor for SetFloat {
+        fn param(&mut self, key: &'static str, value: ParamMut<'_>) {
+            if key == self.0 {
+                value.set(|| unreachable!(), || self.1);
+            }
+        }
+        fn nested(&mut self, _: &'static str, _: &mut Bsdf) {}
+    }
 }

@@ -153,7 +153,7 @@ mod tests {
             assert!(!TYPES[..i].iter().any(|(r, n, _)| r == role && n == name), "{name} twice");
         }
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
-        assert_eq!(keys(Role::Bsdf, "principled"), None);
+        assert_eq!(keys(Role::Bsdf, "hair"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
         assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::RFilter).count(), 0, "filters are listed by crate::film::filter");
         assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);
