@@ -146,6 +146,12 @@ impl<'a, C> Props<'a, C> {
         }))
     }
 
+    /// Whether `key` is given as a texture (Mitsuba's `principled` tells a texture from the number 0).
+    #[must_use]
+    pub fn is_textured(&self, key: &str) -> bool {
+        self.texture(key).is_some()
+    }
+
     /// Whether `key` is given.
     #[must_use]
     pub fn has(&self, key: &str) -> bool {

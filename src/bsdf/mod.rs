@@ -16,6 +16,9 @@
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
+//! - `Principled` (Mitsuba 3's `principled`): its diffuse, sheen and clearcoat lobes reflect from the front
+//!   only, its main specular lobe on both sides; with a transmitting share (`spec_trans`) it refracts as
+//!   `RoughDielectric` does (interior −z), without one nothing scatters from behind.
 //! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
 //!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
 //!   hit's geometry; they are not reciprocal (nor are Mitsuba's).
@@ -46,6 +49,8 @@ mod params;
 mod perturbed;
 mod phong;
 mod plastic;
+mod principled;
+mod principled_lobes;
 mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
@@ -72,6 +77,7 @@ pub use mask::Mask;
 pub use null::Null;
 pub use phong::Phong;
 pub use plastic::Plastic;
+pub use principled::{Principled, SamplingRates};
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -215,6 +221,7 @@ bsdf_types! {
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
     RoughPlastic(roughplastic::RoughPlastic),
+    Principled(principled::Principled),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),

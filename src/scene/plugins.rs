@@ -140,7 +140,7 @@ mod tests {
         }
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
         assert_eq!(keys(Role::Emitter, "spot").unwrap(), ["intensity", "cutoff_angle", "beam_width", "to_world"]);
-        assert_eq!(keys(Role::Bsdf, "principled"), None);
+        assert_eq!(keys(Role::Bsdf, "hair"), None);
         assert_eq!(keys(Role::Shape, "shapegroup"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
         assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);

@@ -182,3 +182,16 @@ fn mask_and_null_mis_match_mitsuba() {
     // caustic falls through the holes.
     matches_mitsuba("mask", Estimator::Mis, 64);
 }
+
+#[test]
+fn principled_pt_matches_mitsuba() {
+    // Rough metal with a textured roughness, a clearcoat, a glass-like spec_trans sphere, an anisotropic
+    // panel and a floor with sheen, flatness and a textured base colour.
+    matches_mitsuba("principled", Estimator::Pt, 512);
+}
+
+#[test]
+fn principled_mis_matches_mitsuba() {
+    // The glass cube's caustic on the principled floor, gathered from photons.
+    matches_mitsuba("principled", Estimator::Mis, 64);
+}
