@@ -60,13 +60,15 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<Outcome> {
     if let Some(png) = &args.png {
         write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
     }
+    // What the image really holds (the film's sample counts), not the render's nominal spp.
+    let fewer = format!("the image has {:.2} spp of the {} the render asked for (at least {} in every pixel)", stats.spp_merged, stats.spp, stats.spp_merged_min);
     let missing: Vec<String> = stats.missing.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
     if !missing.is_empty() {
-        warning!("merged without part(s) {}: the image has fewer samples than the render asked for", missing.join(", "));
+        warning!("merged without part(s) {}: {fewer}", missing.join(", "));
     }
     let partial: Vec<String> = stats.partial.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
     if !partial.is_empty() {
-        warning!("part(s) {} were interrupted and merged with the passes they finished: the image has fewer samples than the render asked for", partial.join(", "));
+        warning!("part(s) {} were interrupted and merged with the passes they finished: {fewer}", partial.join(", "));
     }
     stats.seconds_merge = t.elapsed().as_secs_f64();
     if let Some(p) = &args.stats {
