@@ -13,7 +13,8 @@
 //! caller's [`Event`] callback, the connection is dropped, and the next image tries to connect again (at
 //! most one attempt per image, so a viewer started or restarted during the render is found at the next
 //! pass; pbrt-v4 also reconnects on its next send). [`Display::finish`] sends the last image, then
-//! closes; it waits at most one connection attempt and one send.
+//! closes: it waits for the send under way, if any, then at most one connection attempt and one send of
+//! the last image (a few seconds at worst, after the outputs are written).
 
 pub mod tev;
 
