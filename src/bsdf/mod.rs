@@ -249,6 +249,9 @@ pub struct BsdfSample {
     /// `pdf_w()` returns). For delta samples: the discrete probability of having chosen that delta lobe.
     pub pdf_w: f32,
     pub delta: bool,
+    /// The lobe of `null` or of a `mask`'s transparent part (`null::pass_through`): the ray goes on
+    /// unchanged and nothing scattered (Mitsuba's `BSDFFlags::Null`; `hide_emitters` reads it).
+    pub pass_through: bool,
 }
 
 /// The largest f32 below 1: remapped uniform numbers are clamped to it to stay in `[0, 1)`.
@@ -384,5 +387,6 @@ fn non_delta_sample(m: &impl Model, wo: Vec3, wi: Vec3, mode: TransportMode) -> 
         weight,
         pdf_w,
         delta: false,
+        pass_through: false,
     })
 }

@@ -169,3 +169,17 @@ fn mask_and_null_mis_match_mitsuba() {
     // caustic falls through the holes.
     matches_mitsuba("mask", Estimator::Mis, 64);
 }
+
+/// Mitsuba's `hide_emitters` (not a material, but the same comparison): the sky and the light the camera
+/// sees are hidden, what reaches them through a mirror, glass or a pass-through followed by a scattering is
+/// not (`PathTracer::hide_unscattered`; `tests/data/materials/hide-emitters.toml`).
+#[test]
+fn hide_emitters_pt_matches_mitsuba() {
+    matches_mitsuba("hide-emitters", Estimator::Pt, 256);
+}
+
+#[test]
+fn hide_emitters_mis_matches_mitsuba() {
+    // The photon map's caustics (the glass sphere's) are collected by paths that scattered: shown.
+    matches_mitsuba("hide-emitters", Estimator::Mis, 64);
+}
