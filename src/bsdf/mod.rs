@@ -45,6 +45,7 @@ mod null;
 mod params;
 mod perturbed;
 mod plastic;
+mod pplastic;
 mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
@@ -71,6 +72,7 @@ pub use null::Null;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
+pub use pplastic::PPlastic;
 pub use roughplastic::RoughPlastic;
 pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
@@ -211,6 +213,7 @@ bsdf_types! {
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
     RoughPlastic(roughplastic::RoughPlastic),
+    PPlastic(pplastic::PPlastic),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, PPlastic, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -273,6 +273,30 @@ fn chi2_roughplastic() {
     run_chi2_suite(&cases, 300_000);
 }
 
+/// Mitsuba's `pplastic` (RGB form): a coloured base, polypropylene's index, isotropic or anisotropic.
+fn pplastic(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
+    let md = Microfacet { kind, alpha_u, alpha_v, sample_visible };
+    Bsdf::PPlastic(PPlastic::new(md, 1.49, Vec3::new(0.8, 0.5, 0.2), Vec3::ONE))
+}
+
+#[test]
+fn chi2_pplastic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (au, av, visible) in [(0.05, 0.05, true), (0.3, 0.3, true), (0.2, 0.2, false), (0.1, 0.4, true)] {
+            for t in [0.0, 45.0, 80.0] {
+                cases.push((
+                    format!("pplastic {} α {au}/{av} visible {visible} θo {t}", kind.name()),
+                    two(pplastic(kind, au, av, visible)),
+                    wo_at(t),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
 #[test]
 fn chi2_blend_diffuse_roughconductor() {
     let mut cases = Vec::new();
@@ -416,6 +440,8 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     v.push(two(plastic()));
     v.push(two(rough_plastic(MicrofacetType::Beckmann, 0.1, true)));
     v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
+    v.push(two(pplastic(MicrofacetType::Beckmann, 0.1, 0.1, true)));
+    v.push(two(pplastic(MicrofacetType::Ggx, 0.1, 0.4, false)));
     v.push(blend(
         0.5,
         diffuse(0.5),
