@@ -8,6 +8,7 @@
 //! - [`accel`]: the `Accel` interface, the brute-force oracle, the pure-Rust BVH and (feature `embree`)
 //!   the Embree backend — with [`denoise`]'s FFI to Open Image Denoise, the only code allowed `unsafe`.
 //! - [`sampler`]: deterministic random streams keyed by (seed, pixel, sample, dimension).
+//! - [`display`]: the live preview of a render in the tev viewer (its TCP packets, a sending thread).
 #![deny(unsafe_code)]
 
 pub mod accel;
@@ -16,6 +17,8 @@ pub mod bsdf;
 pub mod camera;
 pub mod cli;
 pub mod denoise;
+pub mod display;
+pub mod emitter;
 pub mod error;
 pub mod film;
 pub mod integrator;
@@ -30,5 +33,6 @@ pub mod report;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod shape;
 pub mod sys;
 pub mod texture;

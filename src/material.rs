@@ -205,7 +205,7 @@ mod tests {
     }
 
     fn range(max: f32) -> impl Fn(u32) -> Textured {
-        move |_| Textured { mean: Vec3::splat(0.5 * max), mean_1: 0.5 * max, max: Vec3::splat(max) }
+        move |_| Textured { mean: Vec3::splat(0.5 * max), mean_1: 0.5 * max, max: Vec3::splat(max), min: Vec3::ZERO }
     }
 
     #[test]

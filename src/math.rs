@@ -246,6 +246,23 @@ pub fn spawn_t_min(p_error: Vec3, dir: Vec3) -> f32 {
     }
 }
 
+/// The linear part of an affine transform and its determinant, if the transform can place geometry: not
+/// singular (the determinant against the product of the column lengths, which is 1 for a rotation, above
+/// 10⁻¹²) and not overflowing f32. The message says which.
+pub fn invertible_linear_part(m: Mat4) -> Result<(Mat3, f32), String> {
+    let linear = Mat3::from_mat4(m);
+    let det = linear.determinant();
+    let scale = linear.x_axis.length() * linear.y_axis.length() * linear.z_axis.length();
+    if det.is_infinite() || !scale.is_finite() {
+        let [a, b, c] = [linear.x_axis, linear.y_axis, linear.z_axis].map(Vec3::length);
+        return Err(format!("the transform's scale overflows f32 (determinant {det}): its columns are {a:e}, {b:e} and {c:e} long"));
+    }
+    if !det.is_finite() || det == 0.0 || det.abs() <= 1e-12 * scale {
+        return Err(format!("the transform is singular (determinant {det}); a zero scale flattens the shape"));
+    }
+    Ok((linear, det))
+}
+
 /// `v / |v|` for any finite non-zero `v`, even where `|v|²` over- or underflows f32 (`v` is first divided
 /// by its largest component); `None` for zero or non-finite `v`.
 #[must_use]

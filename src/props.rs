@@ -71,6 +71,8 @@ pub struct Textured {
     pub mean_1: f32,
     /// Per-channel maximum of its colour.
     pub max: Vec3,
+    /// Per-channel minimum of its colour.
+    pub min: Vec3,
 }
 
 /// Whether a property's value describes a texture rather than a constant: a table with a `type` (an inline
@@ -123,9 +125,10 @@ impl<'a, C> Props<'a, C> {
         self.texture(key).map(|t| check(t.mean_1).map_err(|m| PropError::new(key, format!("the texture's mean: {m}"))))
     }
 
-    /// A colour given as a texture: its mean, once its maximum and mean pass `check`.
+    /// A colour given as a texture: its mean, once its minimum, maximum and mean pass `check`.
     fn textured_colour(&self, key: &str, check: impl Fn(Vec3) -> Result<Vec3, String>) -> Option<Result<Vec3, PropError>> {
         self.texture(key).map(|t| {
+            check(t.min).map_err(|m| PropError::new(key, format!("the texture's minimum: {m}")))?;
             check(t.max).map_err(|m| PropError::new(key, format!("the texture's maximum: {m}")))?;
             check(t.mean).map_err(|m| PropError::new(key, format!("the texture's mean: {m}")))
         })
@@ -141,6 +144,12 @@ impl<'a, C> Props<'a, C> {
             None => format!("missing: {what}"),
             Some(_) => format!("must be a texture ({what}), not a constant"),
         }))
+    }
+
+    /// Whether `key` is given as a texture (Mitsuba's `principled` tells a texture from the number 0).
+    #[must_use]
+    pub fn is_textured(&self, key: &str) -> bool {
+        self.texture(key).is_some()
     }
 
     /// Whether `key` is given.
@@ -194,12 +203,37 @@ impl<'a, C> Props<'a, C> {
         self.get(key).map(|v| colour(v).and_then(finite3).map_err(|m| PropError::new(key, m))).transpose()
     }
 
+    /// A point or a direction: an array of three finite numbers, if given.
+    pub fn vec3(&self, key: &str) -> Result<Option<Vec3>, PropError> {
+        const EXPECTED: &str = "an array of three numbers [x, y, z]";
+        let Some(v) = self.constant(key)? else { return Ok(None) };
+        let read = || match v {
+            Value::Array(a) if a.len() == 3 => {
+                let mut c = [0.0; 3];
+                for (i, x) in a.iter().enumerate() {
+                    c[i] = number(x).map_err(|_| format!("component {i}: {}", invalid_type(x, "a number")))?;
+                }
+                finite3(Vec3::from_array(c))
+            }
+            Value::Array(a) => Err(format!("invalid length {}, expected {EXPECTED}", a.len())),
+            _ => Err(invalid_type(v, EXPECTED)),
+        };
+        read().map(Some).map_err(|m| PropError::new(key, m))
+    }
+
     /// An RGB reflectance (each component in [0, 1]), or `default` when absent.
     pub fn reflectance_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
         if let Some(t) = self.textured_colour(key, reflectance) {
             return t;
         }
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(reflectance).map_err(|m| PropError::new(key, m)))
+    }
+
+    /// The per-channel maximum of the colour at `key` when it is a texture (a constant's maximum is its
+    /// value, which the caller has): what Mitsuba 0.6's `ensureEnergyConservation` reads (`getMaximum`).
+    #[must_use]
+    pub fn texture_max(&self, key: &str) -> Option<Vec3> {
+        self.texture(key).map(|t| t.max)
     }
 
     /// An RGB radiance (each component finite and ≥ 0), or `default` when absent.
@@ -250,7 +284,7 @@ impl<'a, C> Props<'a, C> {
 /// How a TOML value's type is named in messages.
 fn type_name(v: &Value) -> String {
     match v {
-        Value::String(s) => format!("string {:?}", shorten(s)),
+        Value::String(s) => format!("string {}", shown(s)),
         Value::Integer(i) => format!("integer `{i}`"),
         Value::Float(x) => format!("floating point `{x}`"),
         Value::Boolean(b) => format!("boolean `{b}`"),
@@ -260,12 +294,26 @@ fn type_name(v: &Value) -> String {
     }
 }
 
-/// A string cut to a readable length for a message.
-fn shorten(s: &str) -> String {
-    const MAX_CHARS: usize = 80;
-    match s.char_indices().nth(MAX_CHARS) {
-        None => s.to_string(),
-        Some((end, _)) => format!("{}…", &s[..end]),
+/// Characters of a value written in a scene file that messages echo: a value can be megabytes long (a
+/// hostile or broken file), and a message shows enough of it to find it.
+pub(crate) const SHOWN_CHARS: usize = 80;
+
+/// A value written in a scene file as messages show it: quoted (as `{:?}` quotes it), and when longer than
+/// [`SHOWN_CHARS`] characters cut there, with its length: `"0.5 0.5 0.5 …"… (20971520 bytes)`. Every
+/// message that echoes a value, name or attribute of a scene file uses it, or [`cut`] where it is not
+/// quoted.
+pub(crate) fn shown(value: &str) -> String {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => format!("{value:?}"),
+        Some((end, _)) => format!("{:?}… ({} bytes)", &value[..end], value.len()),
+    }
+}
+
+/// [`shown`] unquoted: a tag, a file name or a name between backticks.
+pub(crate) fn cut(value: &str) -> std::borrow::Cow<'_, str> {
+    match value.char_indices().nth(SHOWN_CHARS) {
+        None => std::borrow::Cow::Borrowed(value),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &value[..end], value.len())),
     }
 }
 

@@ -9,13 +9,16 @@
 //!   computed from either side agree bit for bit.
 //! - Delta lobes (smooth conductor, smooth dielectric) are only reachable through `sample`; their
 //!   [`BsdfSample::pdf_w`] is the discrete probability of having chosen the lobe.
-//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor`, `RoughConductor`, `Plastic` and
-//!   `RoughPlastic` reflect only when
+//! - One-sided reflection, as in Mitsuba 3: `Diffuse`, `Conductor`, `RoughConductor`, `Plastic`,
+//!   `RoughPlastic` (and Mitsuba 0.6's `Phong` and `Ward`, as 0.6's) reflect only when
 //!   `wo` and `wi` are both above the surface (+z); below, `f = 0`, `pdf_w = 0` and `sample → None`.
 //!   `TwoSided` (Mitsuba's `twosided`) mirrors a configuration below the surface to +z, so its inner BSDF
 //!   reflects on both sides; the inner BSDF must not transmit (the scene loader rejects dielectrics there).
 //!   `Dielectric` and `RoughDielectric`: `wo.z > 0` is outside, the interior (index `eta` relative to the
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
+//! - `Principled` (Mitsuba 3's `principled`): its diffuse, sheen and clearcoat lobes reflect from the front
+//!   only, its main specular lobe on both sides; with a transmitting share (`spec_trans`) it refracts as
+//!   `RoughDielectric` does (interior −z), without one nothing scatters from behind.
 //! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
 //!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
 //!   hit's geometry; they are not reciprocal (nor are Mitsuba's).
@@ -44,14 +47,18 @@ mod normalmap;
 mod null;
 mod params;
 mod perturbed;
+mod phong;
 mod plastic;
 mod pplastic;
+mod principled;
+mod principled_lobes;
 mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
 mod thindielectric;
 mod twosided;
+mod ward;
 #[cfg(test)]
 mod tests;
 
@@ -69,7 +76,9 @@ pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use null::Null;
+pub use phong::Phong;
 pub use plastic::Plastic;
+pub use principled::{Principled, SamplingRates};
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use pplastic::PPlastic;
@@ -77,6 +86,7 @@ pub use roughplastic::RoughPlastic;
 pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use ward::{Ward, WardVariant};
 
 use crate::math::{Vec2, Vec3};
 
@@ -214,12 +224,15 @@ bsdf_types! {
     Plastic(plastic::Plastic),
     RoughPlastic(roughplastic::RoughPlastic),
     PPlastic(pplastic::PPlastic),
+    Principled(principled::Principled),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),
     Null(null::Null),
     NormalMap(normalmap::NormalMap),
     BumpMap(bumpmap::BumpMap),
+    Phong(phong::Phong),
+    Ward(ward::Ward),
 }
 
 /// The plugin of the BSDF type Mitsuba names `name`.

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, PPlastic, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, PPlastic, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided, Ward, WardVariant};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -86,8 +86,8 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
 /// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic + 2×6 + 3
-/// masks + 7×3 + 3 perturbed frames): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 232;
+/// masks + 7×3 + 3 perturbed frames + 4×3 phong + 3×3 + 2×2 ward + 25 principled + 2×4×3 pplastic): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 306;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -292,6 +292,42 @@ fn chi2_pplastic() {
                     PdfIntegral::AtMostOne,
                 ));
             }
+/// Mitsuba 0.6's `phong`, coloured, with 0.6's energy scale of 1.
+fn phong(exponent: f32, diffuse: Vec3, specular: Vec3) -> Bsdf {
+    Bsdf::Phong(Phong::new(exponent, diffuse, specular, 1.0))
+}
+
+/// Mitsuba 0.6's `ward`, coloured.
+fn ward(variant: WardVariant, alpha_u: f32, alpha_v: f32) -> Bsdf {
+    Bsdf::Ward(Ward::new(variant, alpha_u, alpha_v, Vec3::new(0.5, 0.3, 0.2), Vec3::new(0.3, 0.4, 0.2), 1.0))
+}
+
+#[test]
+fn chi2_phong() {
+    let mut cases = Vec::new();
+    for n in [1.0, 10.0, 60.0, 400.0] {
+        for t in [0.0, 45.0, 80.0] {
+            // Mostly the glossy lobe (w ≈ 0.63), whose directions below the surface are lost.
+            let b = two(phong(n, Vec3::new(0.2, 0.1, 0.1), Vec3::new(0.3, 0.3, 0.2)));
+            cases.push((format!("phong n {n} θo {t}"), b, wo_at(t), PdfIntegral::AtMostOne));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+#[test]
+fn chi2_ward() {
+    let mut cases = Vec::new();
+    for (au, av) in [(0.05, 0.05), (0.3, 0.3), (0.1, 0.4)] {
+        for t in [0.0, 45.0, 80.0] {
+            cases.push((format!("ward balanced α ({au}, {av}) θo {t}"), two(ward(WardVariant::Balanced, au, av)), wo_at(t), PdfIntegral::AtMostOne));
+        }
+    }
+    // The sampler is the same for every variant (only f differs); the other two, anisotropic, seen from
+    // another azimuth.
+    for v in [WardVariant::Ward, WardVariant::WardDuer] {
+        for t in [30.0, 70.0] {
+            cases.push((format!("ward {v:?} α (0.4, 0.1) θo {t} φo 1.1"), two(ward(v, 0.4, 0.1)), dir(t, 1.1), PdfIntegral::AtMostOne));
         }
     }
     run_chi2_suite(&cases, 300_000);
@@ -442,6 +478,13 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
     v.push(two(pplastic(MicrofacetType::Beckmann, 0.1, 0.1, true)));
     v.push(two(pplastic(MicrofacetType::Ggx, 0.1, 0.4, false)));
+    v.push(two(phong(30.0, Vec3::new(0.5, 0.3, 0.1), Vec3::new(0.3, 0.4, 0.2))));
+    v.push(two(phong(1.0, Vec3::splat(0.1), Vec3::splat(0.8))));
+    v.push(two(phong(500.0, Vec3::ZERO, Vec3::ONE)));
+    for variant in [WardVariant::Ward, WardVariant::WardDuer, WardVariant::Balanced] {
+        v.push(two(ward(variant, 0.08, 0.5)));
+    }
+    v.push(two(ward(WardVariant::Balanced, 0.2, 0.2)));
     v.push(blend(
         0.5,
         diffuse(0.5),
@@ -560,6 +603,30 @@ fn roughconductor_energy() {
     }
 }
 
+/// White furnace of 0.6's `phong` and `balanced` `ward` (diffuse + specular = 1, two-sided): the sampler's
+/// mean is the integrated albedo and neither creates energy (Phong loses some towards grazing angles, as
+/// 0.6's model does; `ward-duer`, which can exceed 1 there, is in `ward`'s own tests).
+#[test]
+fn phong_and_balanced_ward_furnace() {
+    let mut cases = Vec::new();
+    for n in [0.0, 5.0, 80.0] {
+        cases.push((format!("phong n {n}"), two(phong(n, Vec3::splat(0.4), Vec3::splat(0.6)))));
+    }
+    for (au, av) in [(0.05, 0.05), (0.5, 0.5), (0.1, 0.4)] {
+        let w = Ward::new(WardVariant::Balanced, au, av, Vec3::splat(0.3), Vec3::splat(0.7), 1.0);
+        cases.push((format!("ward α ({au}, {av})"), two(Bsdf::Ward(w))));
+    }
+    for (name, bsdf) in &cases {
+        for t in THETAS {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(bsdf, wo, 100_000);
+            let integral = integrate_sphere(|wi| bsdf.f(wo, wi, TransportMode::Radiance).x * wi.z.abs()) as f32;
+            assert!((albedo.x - integral).abs() <= 5.0 * se.x + 2e-3 * integral, "{name} θo {t}: sampled {albedo} ± {se} vs ∫ {integral}");
+            assert!(albedo.x <= 1.0 + 5.0 * se.x && integral <= 1.0 + 2e-3, "{name} θo {t}: {albedo} {integral}");
+        }
+    }
+}
+
 #[test]
 fn blend_energy_is_the_weighted_sum() {
     let (d, rc) = (Vec3::new(0.8, 0.6, 0.4), rough(0.2, Some((AU_ETA, AU_K))));
@@ -625,6 +692,8 @@ fn delta_flags() {
     assert!(!mask(0.0, diffuse(1.0)).has_non_delta());
     let null = Bsdf::Null(Null);
     assert!(null.has_delta() && !null.has_non_delta() && null.transmits());
+    assert!(phong(30.0, Vec3::ZERO, Vec3::splat(0.1)).has_non_delta() && !phong(30.0, Vec3::ZERO, Vec3::ZERO).has_non_delta());
+    assert!(!ward(WardVariant::Ward, 0.1, 0.1).has_delta() && ward(WardVariant::Ward, 0.1, 0.1).has_non_delta());
 }
 
 /// `chooses_lobe` is false exactly where `sample` ignores `u_lobe` (the path tracer then spares the sampler a
@@ -643,6 +712,8 @@ fn chooses_lobe_exactly_where_u_lobe_is_read() {
         (two(blend(0.5, diffuse(1.0), rough(0.3, None))), true),
         (mask(0.5, two(diffuse(0.8))), true),
         (Bsdf::Null(Null), false),
+        (phong(20.0, Vec3::splat(0.4), Vec3::splat(0.5)), true),
+        (two(ward(WardVariant::Balanced, 0.2, 0.2)), true),
     ];
     let key = |s: Option<BsdfSample>| s.map(|s| (s.wi_local, s.weight, s.pdf_w, s.delta));
     for (bsdf, chooses) in cases {
@@ -691,6 +762,18 @@ fn never_nan_at_grazing_or_degenerate_input() {
         blend(0.5, diffuse(0.5), rough_glass(MicrofacetType::Ggx, 0.1, 0.1, true, 1.5)),
         rough_plastic(MicrofacetType::Beckmann, 1e-7, true),
         rough_plastic(MicrofacetType::Ggx, 3.0, false),
+        phong(0.0, Vec3::splat(0.5), Vec3::splat(0.5)),
+        phong(1e5, Vec3::splat(0.5), Vec3::splat(0.5)),
+        phong(-3.0, Vec3::ZERO, Vec3::ONE),
+        phong(30.0, Vec3::ZERO, Vec3::ZERO),
+        ward(WardVariant::WardDuer, 1e-4, 1e-4),
+        ward(WardVariant::Ward, 0.0, 2.0),
+        ward(WardVariant::Balanced, 3.0, 3.0),
+        principled("roughness = 0\nspec_trans = 1\neta = 1"),
+        principled("roughness = 0\nanisotropic = 1\nclearcoat = 1\nclearcoat_gloss = 1\nmetallic = 0.5\nspec_trans = 0.5\nflatness = 1\nsheen = 1\nsheen_tint = 1\nspec_tint = 1"),
+        principled("base_color = 0\nspecular = 0\nspec_trans = 1"),
+        principled("roughness = 1\nanisotropic = 1\nspec_trans = 0.3\neta = 0.6"),
+        principled("main_specular_sampling_rate = 0\ndiffuse_reflectance_sampling_rate = 0\nclearcoat_sampling_rate = 0"),
     ]);
     let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
     let mut wos = Vec::new();
@@ -753,6 +836,8 @@ fn fused_f_pdf_is_bit_identical_to_separate_calls() {
         rough_glass(MicrofacetType::Ggx, 0.2, 0.2, true, 1.5),
         rough_glass(MicrofacetType::Beckmann, 0.1, 0.4, false, 1.33),
         rough_plastic(MicrofacetType::Ggx, 0.2, true),
+        phong(30.0, Vec3::splat(0.5), Vec3::splat(0.3)),
+        ward(WardVariant::Balanced, 0.1, 0.3),
     ];
     let mut s = Sampler::for_key(11, 0, 0);
     for bsdf in &cases {
@@ -781,6 +866,8 @@ fn one_sided_bsdfs_are_black_from_behind_and_twosided_mirrors_them() {
             eta_k: None,
         }),
         blend(0.4, Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE }), Bsdf::Conductor(Conductor { specular_reflectance: Vec3::ONE, eta_k: None })),
+        phong(20.0, Vec3::splat(0.4), Vec3::splat(0.5)),
+        ward(WardVariant::WardDuer, 0.2, 0.1),
     ];
     let mut s = Sampler::for_key(34, 0, 0);
     for b in &one_sided {
@@ -952,4 +1039,122 @@ fn perturbation_rules_follow_mitsuba() {
     let wi = Vec3::new(-0.8, 0.0, 0.6);
     let f = b.f(wo, wi, TransportMode::Radiance).x;
     assert!((f - std::f32::consts::FRAC_1_PI / 0.6).abs() < 1e-5, "{f}");
+}
+
+/// Mitsuba's `principled` from a scene file's table (TOML lines), through its plugin's constructor.
+fn principled(table: &str) -> Bsdf {
+    super::principled::tests::parse(table)
+}
+
+/// The `principled` configurations of the χ², consistency and reciprocity tests: (name, table, incident
+/// angles θo, > 90° below the surface where a transmitting share makes it scatter).
+const PRINCIPLED: [(&str, &str, &[f32]); 7] = [
+    ("diffuse + sheen + flatness", "base_color = [0.8, 0.4, 0.2]\nroughness = 0.7\nsheen = 0.5\nflatness = 0.3", &[0.0, 40.0, 80.0]),
+    ("metallic rough", "base_color = [0.9, 0.6, 0.3]\nmetallic = 1.0\nroughness = 0.3", &[0.0, 40.0, 80.0]),
+    ("anisotropic", "base_color = 0.5\nmetallic = 0.6\nroughness = 0.4\nanisotropic = 0.8\nspec_tint = 0.5", &[10.0, 45.0, 80.0]),
+    ("glass-like spec_trans", "base_color = [0.9, 0.9, 0.7]\nspec_trans = 0.9\nroughness = 0.2\neta = 1.5", &[0.0, 35.0, 75.0, 125.0, 160.0]),
+    ("clearcoat", "base_color = [0.2, 0.4, 0.8]\nclearcoat = 0.8\nclearcoat_gloss = 0.6\nroughness = 0.5\nsheen = 0.7\nsheen_tint = 0.5\nspecular = 0.8", &[0.0, 40.0, 80.0]),
+    (
+        "every lobe (Mitsuba's example)",
+        "base_color = 1.0\nmetallic = 0.7\nspecular = 0.6\nroughness = 0.2\nspec_tint = 0.4\nanisotropic = 0.5\nsheen = 0.3\nsheen_tint = 0.2\nclearcoat = 0.6\nclearcoat_gloss = 0.3\nspec_trans = 0.4",
+        &[0.0, 35.0, 75.0, 125.0, 160.0],
+    ),
+    (
+        "sampling rates",
+        "base_color = [0.3, 0.6, 0.9]\nroughness = 0.35\nspec_trans = 0.5\nclearcoat = 1.0\nclearcoat_gloss = 0.8\neta = 1.33\ndiffuse_reflectance_sampling_rate = 0.5\nmain_specular_sampling_rate = 2.0\nclearcoat_sampling_rate = 3.0",
+        &[20.0, 70.0, 140.0],
+    ),
+];
+
+#[test]
+fn chi2_principled() {
+    let mut cases = Vec::new();
+    for (name, table, thetas) in PRINCIPLED {
+        for &t in thetas {
+            // Lost samples (reflected below, refracted back, incompatible microfacets): ∫pdf ≤ 1.
+            cases.push((format!("principled {name} θo {t}"), principled(table), dir(t, 0.3 + t.to_radians()), PdfIntegral::AtMostOne));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+/// Every configuration in both modes from directions all over the sphere: the reported pdf is `pdf_w`, bit
+/// for bit, the weight `f·|cos θi|/pdf_w`; the sampled albedo is the integrated one; nothing scatters from
+/// behind without a transmitting share.
+#[test]
+fn principled_samples_report_pdf_w_weight_and_albedo_consistently() {
+    for (k, (name, table, thetas)) in PRINCIPLED.iter().enumerate() {
+        let b = principled(table);
+        for i in 0..20_000u64 {
+            let mut s = Sampler::for_key(35, k as u64, i);
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let Some(smp) = b.sample(wo, s.next_1d(), s.next_2d(), mode) else { continue };
+                let wi = smp.wi_local;
+                assert!(!smp.delta && (wi.length() - 1.0).abs() < 1e-5, "{name}");
+                assert!(b.transmits() || (wo.z > 0.0 && wi.z > 0.0), "{name}: {wo} → {wi}");
+                assert_eq!(smp.pdf_w.to_bits(), b.pdf_w(wo, wi).to_bits(), "{name}: {wo} → {wi}");
+                let want = b.f(wo, wi, mode) * wi.z.abs() / smp.pdf_w;
+                assert!((smp.weight - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-6), "{name}: {} vs {want}", smp.weight);
+            }
+        }
+        // The sampler's mean weight is ∫f·|cos θi| (5σ + the quadrature's error on these lobes).
+        for &t in thetas.iter().filter(|&&t| t < 90.0) {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&b, wo, 200_000);
+            for c in 0..3 {
+                let integral = integrate_sphere(|wi| b.f(wo, wi, TransportMode::Radiance)[c] * wi.z.abs()) as f32;
+                assert!((albedo[c] - integral).abs() <= 5.0 * se[c] + 5e-3 * integral, "{name} θo {t} channel {c}: sampled {} vs ∫ {integral}", albedo[c]);
+            }
+        }
+    }
+}
+
+/// What is true of Mitsuba's model (it is not energy-conserving in general: the diffuse lobe ignores what the
+/// specular one took, and the retro-reflection and sheen add): a white metal is GGX with `F = 1`, which
+/// loses energy only to masking (albedo ≤ 1, near 1 when smooth and seen from above); a white spec_trans glass
+/// in importance mode keeps at most what arrives; reflection is reciprocal on either side, and refraction
+/// is reciprocal between the modes (Veach 1997 eq. 5.21).
+#[test]
+fn principled_energy_and_reciprocity() {
+    for roughness in [0.3f32, 0.6, 1.0] {
+        let metal = principled(&format!("base_color = 1.0\nmetallic = 1.0\nroughness = {roughness}"));
+        let glass = principled(&format!("base_color = 1.0\nspec_trans = 1.0\nroughness = {roughness}"));
+        for t in [0.0f32, 30.0, 60.0, 85.0] {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&metal, wo, 100_000);
+            assert!(albedo.x <= 1.0 + 3.0 * se.x && (albedo.x - albedo.z).abs() < 1e-6, "metal r {roughness} θo {t}: {albedo}");
+            if t == 0.0 && roughness <= 0.3 {
+                assert!(albedo.x > 0.97, "metal r {roughness} θo {t}: {albedo}");
+            }
+            for wo in [wo, -wo] {
+                let (mut sum, n) = (0.0f64, 100_000u64);
+                for i in 0..n {
+                    let mut s = Sampler::for_key(36, i, 0);
+                    if let Some(smp) = glass.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Importance) {
+                        sum += f64::from(smp.weight.x);
+                    }
+                }
+                let albedo = sum / n as f64;
+                assert!(albedo <= 1.0 + 5e-3 && albedo > 0.3, "glass r {roughness} wo {wo}: {albedo}");
+            }
+        }
+    }
+    let mut s = Sampler::for_key(37, 0, 0);
+    for (name, table, _) in PRINCIPLED {
+        let b = principled(table);
+        for _ in 0..5000 {
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let wi = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let (a, c) = if wo.z * wi.z > 0.0 {
+                (b.f(wo, wi, TransportMode::Radiance), b.f(wi, wo, TransportMode::Radiance))
+            } else {
+                (b.f(wo, wi, TransportMode::Importance), b.f(wi, wo, TransportMode::Radiance))
+            };
+            // Refraction from a grazing wo reaches the microfacet's critical angle on the other side, where the
+            // two evaluations' `1 − F` in f32 differ most (as for `roughdielectric`): measured ≤ 0.7 % on
+            // values below 10⁻³.
+            assert!((a - c).abs().max_element() <= 1e-3 * a.max_element() + 1e-5, "{name} {wo} {wi}: {a} vs {c}");
+        }
+    }
 }

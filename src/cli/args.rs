@@ -308,7 +308,7 @@ pub fn worker_threads(requested: Option<usize>) -> usize {
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     match requested {
         Some(t) if t > MAX_THREADS => {
-            eprintln!("warning: --threads {t}: capped at {MAX_THREADS} (the limit; this machine has {cores} cores)");
+            super::log::warning!("--threads {t}: capped at {MAX_THREADS} (the limit; this machine has {cores} cores)");
             MAX_THREADS
         }
         Some(t) => t,

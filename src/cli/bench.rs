@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use super::args::{self, named};
+use super::log::info;
 use super::Outcome;
 use crate::accel::BackendKind;
 use crate::bench::{format_table, measure};
@@ -46,7 +47,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<Outcome> {
     print!("{}", format_table(&report));
     if let Some(out) = &args.json {
         write_json_atomic(out, &report)?;
-        eprintln!("wrote {}", out.display());
+        info!("wrote {}", out.display());
     }
     Ok(Outcome::Done)
 }

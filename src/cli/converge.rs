@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use super::args::{self, named, PngArgs, RunArgs};
 use super::photon_args::PhotonArgs;
+use super::log::info;
 use super::Outcome;
 use crate::accel::build_accel;
 use crate::film::io::{write_bytes_atomic, write_json_atomic};
@@ -65,9 +66,6 @@ pub struct ConvergeArgs {
     pub target_metric: ErrorMetric,
     #[command(flatten)]
     pub png_args: PngArgs,
-    /// No per-pass progress lines.
-    #[arg(long, short = 'q')]
-    pub quiet: bool,
 }
 
 /// `summary.json`.
@@ -145,24 +143,18 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
     for &estimator in &args.estimators {
         let mut settings = base.clone();
         settings.estimator = estimator;
-        if !args.quiet {
-            eprintln!("converge: {} for {} s ({} spp per pass, photons {} per pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
-        }
+        info!("converge: {} for {} s ({} spp per pass, photons {} per pass)", estimator.name(), args.time_budget, args.pass_spp, describe_budget(settings.photons));
         let t = Instant::now();
         let run = pool.install(|| {
             run_estimator(&scene, accel.as_ref(), &settings, template.clone(), &cancel, |info, row| {
-                if !args.quiet {
-                    eprintln!("  {} pass {:>3} {:>8.2} s {:>5} spp {:>11} photons  {}", estimator.name(), info.pass, info.seconds, info.spp, info.photons_emitted, progress_text(row));
-                }
+                info!("  {} pass {:>3} {:>8.2} s {:>5} spp {:>11} photons  {}", estimator.name(), info.pass, info.seconds, info.spp, info.photons_emitted, progress_text(row));
             })
         })?;
         let wall = t.elapsed().as_secs_f64();
         let stem = args.output.join(estimator.name());
         write_exr(stem.with_extension("exr"), &run.image)?;
         write_png(stem.with_extension("png"), &run.image, args.png_args.exposure, args.png_args.tonemap)?;
-        if !args.quiet {
-            eprintln!("converge: {} done: {} passes, {} spp, {:.2} s rendering ({wall:.2} s with error evaluation)", estimator.name(), run.passes, run.spp, run.seconds);
-        }
+        info!("converge: {} done: {} passes, {} spp, {:.2} s rendering ({wall:.2} s with error evaluation)", estimator.name(), run.passes, run.spp, run.seconds);
         runs.push(run);
         // errors.csv grows after every estimator, so a long run can be inspected while it goes on.
         write_errors_csv(&args.output.join("errors.csv"), &template, &runs)?;

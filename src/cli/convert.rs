@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context as _};
 
+use super::log::info;
 use super::Outcome;
 use crate::film::io::write_atomic;
 use crate::scene::{convert_scene, is_xml};
@@ -28,6 +29,6 @@ pub fn run(args: &ConvertArgs) -> anyhow::Result<Outcome> {
     }
     let text = convert_scene(&args.input, &args.output, &args.params.map())?;
     write_atomic(&args.output, |w| w.write_all(text.as_bytes())).with_context(|| format!("writing {}", args.output.display()))?;
-    eprintln!("wrote {}", args.output.display());
+    info!("wrote {}", args.output.display());
     Ok(Outcome::Done)
 }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use super::args::{self, PngArgs};
+use super::log::{info, warning};
 use super::Outcome;
 use crate::film::io::write_json_atomic;
 use crate::film::{write_exr, write_png};
@@ -32,9 +33,6 @@ pub struct MergeArgs {
     /// black tiles); the missing and partial parts are listed on stderr and in the stats.
     #[arg(long)]
     pub allow_missing: bool,
-    /// No summary line.
-    #[arg(long, short = 'q')]
-    pub quiet: bool,
 }
 
 /// Runs `caustica merge`.
@@ -62,35 +60,35 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<Outcome> {
     if let Some(png) = &args.png {
         write_png(png, &image, args.png_args.exposure, args.png_args.tonemap)?;
     }
+    // What the image really holds (the film's sample counts), not the render's nominal spp.
+    let fewer = format!("the image has {:.2} spp of the {} the render asked for (at least {} in every pixel)", stats.spp_merged, stats.spp, stats.spp_merged_min);
     let missing: Vec<String> = stats.missing.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
     if !missing.is_empty() {
-        eprintln!("warning: merged without part(s) {}: the image has fewer samples than the render asked for", missing.join(", "));
+        warning!("merged without part(s) {}: {fewer}", missing.join(", "));
     }
     let partial: Vec<String> = stats.partial.iter().map(|i| format!("{i}/{}", stats.parts)).collect();
     if !partial.is_empty() {
-        eprintln!("warning: part(s) {} were interrupted and merged with the passes they finished: the image has fewer samples than the render asked for", partial.join(", "));
+        warning!("part(s) {} were interrupted and merged with the passes they finished: {fewer}", partial.join(", "));
     }
     stats.seconds_merge = t.elapsed().as_secs_f64();
     if let Some(p) = &args.stats {
         write_json_atomic(p, &stats).with_context(|| format!("--stats {}", p.display()))?;
     }
-    if !args.quiet {
-        eprintln!(
-            "{}: merged {} of {} parts ({} shares), {} spp{}; parts took {:.2} s in all (longest {:.2} s), merge {:.2} s",
-            args.output.display(),
-            stats.merged.len(),
-            stats.parts,
-            stats.share,
-            stats.spp,
-            if stats.spp_merged_min == u64::from(stats.spp) && stats.spp_merged == f64::from(stats.spp) {
-                String::new()
-            } else {
-                format!(" asked, {:.2} merged (at least {} in every pixel)", stats.spp_merged, stats.spp_merged_min)
-            },
-            stats.seconds_parts_sum,
-            stats.seconds_parts_max,
-            stats.seconds_merge
-        );
-    }
+    info!(
+        "{}: merged {} of {} parts ({} shares), {} spp{}; parts took {:.2} s in all (longest {:.2} s), merge {:.2} s",
+        args.output.display(),
+        stats.merged.len(),
+        stats.parts,
+        stats.share,
+        stats.spp,
+        if stats.spp_merged_min == u64::from(stats.spp) && stats.spp_merged == f64::from(stats.spp) {
+            String::new()
+        } else {
+            format!(" asked, {:.2} merged (at least {} in every pixel)", stats.spp_merged, stats.spp_merged_min)
+        },
+        stats.seconds_parts_sum,
+        stats.seconds_parts_max,
+        stats.seconds_merge
+    );
     Ok(Outcome::Done)
 }

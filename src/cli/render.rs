@@ -15,11 +15,13 @@ use serde::Serialize;
 
 use super::args::{self, named, PngArgs, RunArgs};
 use super::photon_args::PhotonArgs;
+use super::log::{self, debug, info, note, warning, Level};
 use super::progress::Progress;
 use super::Outcome;
 use crate::accel::{build_accel, embree_version, BackendKind};
 use crate::film::io::{write_bytes_atomic, write_json_atomic};
 use crate::denoise::{denoised_path, Denoiser};
+use crate::display::{Display, Event as DisplayEvent};
 use crate::film::io::write_exr_channels;
 use crate::film::{write_exr, write_png, Film, Rect};
 use crate::scene::aov::Aovs;
@@ -113,12 +115,20 @@ pub struct RenderArgs {
     /// fewer passes than N) into a partial film at -o, for `caustica merge`. Needs a fixed sample count.
     #[arg(long, value_name = "I/N", value_parser = |s: &str| s.parse::<Part>())]
     pub part: Option<Part>,
-    /// No progress bar (nor, without a terminal, progress lines).
-    #[arg(long, short = 'q')]
-    pub quiet: bool,
-    /// Without a terminal (a CI log, a batch job), a progress line on stderr every SECONDS; 0: none.
+    /// Show the image in the tev viewer while it renders, after every round (pbrt-v4's flag; tev listens on
+    /// 127.0.0.1:14158). A viewer that is absent or goes away is warned about once and never stops the
+    /// render; each later round tries to connect again.
+    #[arg(long, value_name = "HOST:PORT", value_parser = display_address)]
+    pub display_server: Option<String>,
+    /// Without a terminal (a CI log, a batch job), a progress line on stderr every SECONDS (at log level
+    /// info and above); 0: none.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = non_negative_seconds)]
     pub log_every: f64,
+}
+
+/// `--display-server`: the library's check of `HOST:PORT`.
+fn display_address(s: &str) -> Result<String, String> {
+    crate::display::check_address(s).map(|()| s.to_string())
 }
 
 /// A finite number of seconds ≥ 0.
@@ -273,9 +283,7 @@ fn check_scenes(args: &RenderArgs) -> anyhow::Result<()> {
 fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyhow::Result<Outcome> {
     let t_start = Instant::now();
     let scene = load_scene(args, scene_path)?;
-    if !args.quiet {
-        print_notes(&scene);
-    }
+    print_notes(&scene);
     let settings = settings(args, &scene)?;
     if args.part.is_some() && !settings.aovs.is_empty() {
         bail!("--part: AOV channels (--aov, --denoise, or the scene's integrator.aovs / Mitsuba's aov integrator) are not kept in partial films; render the AOVs in one process");
@@ -288,7 +296,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let threads = args.run.threads();
     let pool = args.run.pool()?;
     let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
-    if !args.quiet {
+    if log::enabled(Level::Info) {
         pool.install(|| warn_long_photon_pass(&scene, accel.as_ref(), &settings));
     }
     let seconds_setup = t_start.elapsed().as_secs_f64();
@@ -297,8 +305,9 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     // (No progress line where the stats JSON goes to standard output.)
     let stats_to_stdout = args.stats.as_deref().is_some_and(is_stdout);
     let terminal = std::io::stdout().is_terminal();
-    let show = !args.quiet && !stats_to_stdout && terminal;
-    let log_every = (!args.quiet && !terminal && args.log_every > 0.0).then(|| Duration::from_secs_f64(args.log_every));
+    let info = log::enabled(Level::Info);
+    let show = info && !stats_to_stdout && terminal;
+    let log_every = (info && !terminal && args.log_every > 0.0).then(|| Duration::from_secs_f64(args.log_every));
     let progress = Progress::new(show, log_every, &settings, crop_window(&scene).area());
     let mut film = settings.film(&scene.camera)?;
     let share = match args.part {
@@ -306,6 +315,11 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
         None => Share::All,
     };
     let output = output_path(args, scene_path);
+    debug!("{}", describe_settings(&scene, &settings, backend, threads));
+    let display = match &args.display_server {
+        Some(address) => Some(start_display(address, &output)?),
+        None => None,
+    };
     let mut checkpoint = args.checkpoint.or(args.write_partial_images.then_some(0.0)).map(|every| Checkpoint { every, last: Instant::now(), warned: false });
     let phases = pool.install(|| {
         render_share(
@@ -316,7 +330,11 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
             &mut film,
             cancel,
             |film, info| {
+                debug!("round {}: pass {}{}, {} spp, {:.2} s", info.round, info.pass, if info.pass_done { " done" } else { "" }, info.spp, info.seconds);
                 progress.pass_done(info, pass_log.record(film, info).as_ref());
+                if let Some(d) = &display {
+                    d.show(film.image());
+                }
                 if let Some(c) = checkpoint.as_mut().filter(|c| c.last.elapsed().as_secs_f64() >= c.every) {
                     let timing = Timing { seconds_total: t_start.elapsed().as_secs_f64(), seconds_setup };
                     let phases = RenderPhaseStats { partial: true, ..info.phases.clone() };
@@ -340,6 +358,10 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
             None
         }
     };
+    // The viewer has the last round's image (sent after the written one: a lost viewer delays nothing).
+    if let Some(d) = display {
+        d.finish();
+    }
     if let Some(e) = pass_log.failure.take() {
         return Err(e.context(format!("the image was written to {}", output.display())));
     }
@@ -369,10 +391,50 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
         done.extend(args.png.as_deref());
         write_json_atomic(p, &stats).with_context(|| format!("--stats {} (written: {})", p.display(), written(&done)))?;
     }
-    if !args.quiet {
-        print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
-    }
+    print_summary(&output, &scene, &settings, &phases, &stats, &pass_log);
     Ok(outcome(phases.partial))
+}
+
+/// Starts sending the image to the display server at `address` (`--display-server`), shown in the viewer
+/// under the output's name; what happens to the connection is logged (`crate::display` module docs).
+fn start_display(address: &str, output: &Path) -> anyhow::Result<Display> {
+    let addr = address.to_string();
+    Display::start(address, &output.display().to_string(), move |event| match event {
+        DisplayEvent::Connected { again: false } => debug!("display server {addr}: connected"),
+        DisplayEvent::Connected { again: true } => note!("display server {addr}: connected"),
+        DisplayEvent::Failed { error, first: true } => {
+            warning!("--display-server {addr}: {error}; the render goes on without the viewer (each later round tries again)");
+        }
+        DisplayEvent::Failed { error, first: false } => debug!("display server {addr}: {error}"),
+        DisplayEvent::Sent { bytes, seconds } => debug!("display server {addr}: sent {:.1} kB in {:.1} ms", bytes as f64 / 1e3, seconds * 1e3),
+    })
+    .context("--display-server: starting its thread")
+}
+
+/// The settings a render runs with, for `--log-level debug`.
+fn describe_settings(scene: &Scene, settings: &RenderSettings, backend: BackendKind, threads: usize) -> String {
+    let crop = crop_window(scene);
+    let spp = match settings.time_limit {
+        Some(t) => format!("passes of {} spp for {t} s", settings.effective_pass_spp()),
+        None => format!("{} spp in {} pass(es)", settings.spp, settings.pass_count().unwrap_or(1)),
+    };
+    format!(
+        "{}x{} film, crop {},{},{},{}; {spp}, rounds of {} s; estimator {}, {}, knn {}, max radius {}; seed {}; {} threads, backend {}",
+        scene.camera.width(),
+        scene.camera.height(),
+        crop.x0,
+        crop.y0,
+        crop.x1,
+        crop.y1,
+        settings.round_seconds,
+        settings.estimator.name(),
+        describe_photons(settings.photons),
+        settings.knn,
+        settings.max_radius,
+        settings.seed,
+        threads,
+        backend.name(),
+    )
 }
 
 /// Writes the image and its AOV channels (`aovs`, the film's) to `path`, atomically.
@@ -403,15 +465,15 @@ fn warn_long_photon_pass(scene: &Scene, accel: &dyn crate::accel::Accel, setting
         PhotonBudget::Emitted(n) => n as f64,
         PhotonBudget::Stored(m) if probe.stored > 0 => m as f64 * PHOTON_PROBE as f64 / probe.stored as f64,
         PhotonBudget::Stored(m) => {
-            eprintln!("note: no caustic photon among the first {PHOTON_PROBE} emitted: the photon pass may emit many times its target of {m} stored");
+            note!("no caustic photon among the first {PHOTON_PROBE} emitted: the photon pass may emit many times its target of {m} stored");
             return;
         }
     };
     let seconds = emitted * per_photon;
     if seconds > LONG_PHOTON_PASS {
         let passes = settings.pass_count().map_or(String::new(), |p| if p > 1 { format!(", {p} passes: about {:.0} min in all", seconds * f64::from(p) / 60.0) } else { String::new() });
-        eprintln!(
-            "note: the photon pass of {} will take about {:.0} min at the rate of its first {PHOTON_PROBE} photons ({:.1} µs each){passes}",
+        note!(
+            "the photon pass of {} will take about {:.0} min at the rate of its first {PHOTON_PROBE} photons ({:.1} µs each){passes}",
             describe_photons(settings.photons),
             seconds / 60.0,
             per_photon * 1e6,
@@ -432,18 +494,18 @@ fn describe_photons(budget: PhotonBudget) -> String {
 fn print_notes(scene: &Scene) {
     let (ignored, other): (Vec<_>, Vec<_>) = scene.notes.iter().partition(|n| n.kind == NoteKind::Ignored);
     for n in other {
-        eprintln!("note: {n}");
+        note!("{n}");
     }
     if !ignored.is_empty() {
-        eprintln!("note: {} properties that change no image were ignored (`caustica info` lists them)", ignored.len());
+        note!("{} properties that change no image were ignored (`caustica info` lists them)", ignored.len());
     }
 }
 
 /// Says how many samples were NaN or infinite and what was done with them (`film` module docs).
 fn warn_non_finite(film: &Film, samples: u64) {
     if film.nan_count() + film.inf_count() > 0 {
-        eprintln!(
-            "warning: {} NaN and {} infinite samples (of {}) were counted as zero-valued samples of their pixels, \
+        warning!(
+            "{} NaN and {} infinite samples (of {}) were counted as zero-valued samples of their pixels, \
              whose means are biased low by that share (stats keys nan_samples, inf_samples)",
             film.nan_count(),
             film.inf_count(),
@@ -595,8 +657,8 @@ fn write_part(
     };
     part::write_part(output, film, &info)?;
     if info.is_partial() {
-        eprintln!(
-            "warning: part {p} was interrupted after {} of its {} passes and written as partial to {}: merge it with --allow-missing (fewer samples), or run it again",
+        warning!(
+            "part {p} was interrupted after {} of its {} passes and written as partial to {}: merge it with --allow-missing (fewer samples), or run it again",
             phases.passes_rendered,
             info.passes_in_share(),
             output.display()
@@ -629,7 +691,7 @@ fn cancel_on_signals() -> Arc<AtomicBool> {
                 }
             });
         }
-        Err(e) => eprintln!("warning: cannot catch SIGINT/SIGTERM/SIGHUP ({e}): a signal will end the render without writing it"),
+        Err(e) => warning!("cannot catch SIGINT/SIGTERM/SIGHUP ({e}): a signal will end the render without writing it"),
     }
     cancel
 }
@@ -709,7 +771,7 @@ impl Checkpoint {
             .and_then(|()| args.stats.as_ref().filter(|p| !is_stdout(p)).map_or(Ok(()), |p| write_json_atomic(p, stats).map_err(anyhow::Error::new)));
         if let Err(e) = result {
             if !self.warned {
-                eprintln!("warning: checkpoint not written ({e:#}); the render goes on");
+                warning!("checkpoint not written ({e:#}); the render goes on");
                 self.warned = true;
             }
         }
@@ -788,7 +850,7 @@ fn stats_json(args: &RenderArgs, scene_path: &Path, scene: &Scene, settings: &Re
 /// The one-line summary on stderr (and the last error against the reference).
 fn print_summary(output: &Path, scene: &Scene, settings: &RenderSettings, phases: &RenderPhaseStats, stats: &RenderStatsJson, pass_log: &PassLog<'_>) {
     let crop = crop_window(scene);
-    eprintln!(
+    info!(
         "{}: {}x{} {} spp ({}) in {:.2} s (setup {:.2} s, photons {:.2} s, render {:.2} s), {:.2} Mrays/s{}",
         output.display(),
         crop.width(),
@@ -803,6 +865,6 @@ fn print_summary(output: &Path, scene: &Scene, settings: &RenderSettings, phases
         if phases.partial { format!(" [partial: interrupted by {}]", signal_name(SIGNAL.load(Ordering::SeqCst))) } else { String::new() }
     );
     if let Some(last) = pass_log.last() {
-        eprintln!("error against the reference after {} passes: {}", last.pass, progress_text(last));
+        info!("error against the reference after {} passes: {}", last.pass, progress_text(last));
     }
 }

@@ -3,6 +3,8 @@
 //! - [`rectangle`]: the square [-1,1]² in the xy-plane, facing +z (2 triangles).
 //! - [`cube`]: the cube [-1,1]³, outward faces, flat normals (12 triangles, 24 vertices), Mitsuba's uvs.
 //! - [`sphere`]: a closed UV sphere, watertight in its positions, smooth normals, Mitsuba's uvs.
+//! - [`disk`]: the unit disk at z = 0 facing +z, a fan of `segments` triangles, Mitsuba's uvs.
+//! - [`cylinder`]: the open unit cylinder from z = 0 to z = 1 (radius 1), outward normals, Mitsuba's uvs.
 //!
 //! Triangles wind counter-clockwise seen from the side their normal points to, so the geometric
 //! normal `(p1 − p0) × (p2 − p0)` is the outward/front normal.
@@ -111,6 +113,61 @@ pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> TriangleM
     TriangleMesh { positions, indices, normals: Some(normals), uvs: Some(uvs) }
 }
 
+/// The point at angle `2π·s/segments` on the unit circle, the seam `s = segments` bit-identical to `s = 0`.
+fn circle(s: u32, segments: u32) -> (f32, f32) {
+    let phi = std::f32::consts::TAU * (s % segments) as f32 / segments as f32;
+    (phi.cos(), phi.sin())
+}
+
+/// The unit disk at z = 0 facing +z as a fan of `segments` (≥ 3) triangles, with Mitsuba's uvs (`disk.cpp`:
+/// `u = r`, `v = φ/2π` with `φ` in [0, 2π)). As on the sphere, the seam (`φ = 0`, where `v` jumps from 1 to
+/// 0) and the centre (where `v` is undefined) have a vertex per triangle at bit-identical positions, the
+/// centre's `v` that of its triangle's middle.
+#[must_use]
+pub fn disk(segments: u32) -> TriangleMesh {
+    let segments = segments.max(3);
+    let n = segments as usize;
+    let mut positions = Vec::with_capacity(2 * n + 1);
+    let mut uvs = Vec::with_capacity(2 * n + 1);
+    for s in 0..segments {
+        positions.push(Vec3::ZERO);
+        uvs.push(Vec2::new(0.0, (s as f32 + 0.5) / segments as f32));
+    }
+    for s in 0..=segments {
+        let (c, si) = circle(s, segments);
+        positions.push(Vec3::new(c, si, 0.0));
+        uvs.push(Vec2::new(1.0, s as f32 / segments as f32));
+    }
+    let indices = (0..segments).map(|s| [s, segments + s, segments + s + 1]).collect();
+    TriangleMesh { normals: Some(vec![Vec3::Z; positions.len()]), positions, indices, uvs: Some(uvs) }
+}
+
+/// The open cylinder of radius 1 around the z axis from z = 0 to z = 1, `segments` (≥ 3) quads of two
+/// triangles, outward normals (exact at the vertices) and Mitsuba's uvs (`cylinder.cpp`: `u = φ/2π` with
+/// `φ` in [0, 2π), `v = z`); the seam column repeated at bit-identical positions.
+#[must_use]
+pub fn cylinder(segments: u32) -> TriangleMesh {
+    let segments = segments.max(3);
+    let mut positions = Vec::with_capacity(2 * (segments as usize + 1));
+    let mut normals = Vec::with_capacity(positions.capacity());
+    let mut uvs = Vec::with_capacity(positions.capacity());
+    for s in 0..=segments {
+        let (c, si) = circle(s, segments);
+        for z in [0.0, 1.0] {
+            positions.push(Vec3::new(c, si, z));
+            normals.push(Vec3::new(c, si, 0.0));
+            uvs.push(Vec2::new(s as f32 / segments as f32, z));
+        }
+    }
+    let mut indices = Vec::with_capacity(2 * segments as usize);
+    for s in 0..segments {
+        let (b0, t0, b1, t1) = (2 * s, 2 * s + 1, 2 * s + 2, 2 * s + 3);
+        indices.push([b0, b1, t1]);
+        indices.push([b0, t1, t0]);
+    }
+    TriangleMesh { positions, indices, normals: Some(normals), uvs: Some(uvs) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,6 +201,48 @@ mod tests {
         }
         let exact = 4.0 * std::f64::consts::PI * 4.0;
         assert!((area - exact).abs() / exact < 2e-3, "area {area} vs {exact}");
+
+        let d = disk(256);
+        let area: f32 = (0..d.triangle_count()).map(|i| 0.5 * geometric_normal(&d, i).length()).sum();
+        assert!((0..d.triangle_count()).all(|i| geometric_normal(&d, i).z > 0.0));
+        assert!((area - std::f32::consts::PI).abs() < 1e-3, "disk area {area}");
+
+        let c = cylinder(256);
+        let mut area = 0.0;
+        for i in 0..c.triangle_count() {
+            let [p0, p1, p2] = c.triangle(i);
+            let centroid = (p0 + p1 + p2) / 3.0;
+            let g = geometric_normal(&c, i);
+            assert!(g.dot(Vec3::new(centroid.x, centroid.y, 0.0)) > 0.0, "cylinder triangle {i} faces inward");
+            area += 0.5 * g.length();
+        }
+        assert!((area - std::f32::consts::TAU).abs() < 1e-3, "cylinder area {area}");
+    }
+
+    #[test]
+    fn disk_and_cylinder_uvs_are_mitsubas_and_their_seams_close() {
+        use std::f32::consts::TAU;
+        // (mesh, which uv coordinate is the angle φ/2π)
+        for (m, angle) in [(disk(12), 1), (cylinder(12), 0)] {
+            let uvs = m.uvs.as_ref().unwrap();
+            for t in &m.indices {
+                // Within a triangle the angle coordinate runs continuously (no jump across the seam).
+                let a = t.map(|k| uvs[k as usize][angle]);
+                assert!(a.iter().all(|x| (x - a[0]).abs() <= 1.0 / 12.0 + 1e-6), "{t:?}");
+            }
+            for (p, uv) in m.positions.iter().zip(uvs) {
+                if p.truncate().length() > 0.5 {
+                    let phi = p.y.atan2(p.x).rem_euclid(TAU) / TAU;
+                    assert!((uv[angle] - phi).abs() < 1e-5 || (uv[angle] - phi - 1.0).abs() < 1e-5, "{p} {uv}");
+                }
+            }
+        }
+        let d = disk(12);
+        assert_eq!(d.positions[12], d.positions[24], "the disk's seam vertices are one position");
+        assert!(d.positions.iter().zip(d.uvs.as_ref().unwrap()).all(|(p, uv)| (uv.x - p.length()).abs() < 1e-6));
+        let c = cylinder(12);
+        assert_eq!(c.positions[0], c.positions[24], "the cylinder's seam vertices are one position");
+        assert!(c.positions.iter().zip(c.uvs.as_ref().unwrap()).all(|(p, uv)| uv.y == p.z));
     }
 
     #[test]

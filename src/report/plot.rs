@@ -8,6 +8,7 @@
 use std::sync::Once;
 
 use anyhow::{anyhow, bail};
+use plotters::coord::combinators::{BindKeyPoints, LogCoord, WithKeyPoints};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -76,6 +77,12 @@ pub fn error_plot(title: &str, y_label: &str, series: &[Series]) -> anyhow::Resu
     Ok((svg, encode_png(&rgb, w, h)?))
 }
 
+/// A log axis over `[lo, hi]` labelled at [`log_ticks`], with a faint grid line at the densest ticks that
+/// fit [`MAX_GRID_LINES`].
+fn log_axis(lo: f64, hi: f64) -> WithKeyPoints<LogCoord<f64>> {
+    (lo..hi).log_scale().with_key_points(log_ticks(lo, hi, MAX_TICKS)).with_light_points(log_ticks(lo, hi, MAX_GRID_LINES))
+}
+
 fn draw_error_plot<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
@@ -94,7 +101,7 @@ where
         .margin(16)
         .x_label_area_size(48)
         .y_label_area_size(80)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .build_cartesian_2d(log_axis(x0, x1), log_axis(y0, y1))
         .map_err(err)?;
     chart
         .configure_mesh()
@@ -102,8 +109,8 @@ where
         .y_desc(y_label)
         .label_style((FONT, 15))
         .axis_desc_style((FONT, 17))
-        .x_label_formatter(&|v| if x1 / x0 < 4.0 || is_1235(*v) { format_tick(*v) } else { String::new() })
-        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
         .draw()
         .map_err(err)?;
     for (i, s) in series.iter().enumerate() {
@@ -126,24 +133,88 @@ where
     Ok(())
 }
 
-/// Whether `v` is 1, 2, 3 or 5 times a power of ten (the time axis labels only those ticks when it spans
-/// a wide range, as plotters puts a tick at every 1…9 × 10ᵏ and their labels would overlap).
-fn is_1235(v: f64) -> bool {
-    if !(v.is_finite() && v > 0.0) {
-        return false;
-    }
-    let m = v / 10f64.powf(v.log10().floor());
-    [1.0, 2.0, 3.0, 5.0, 10.0].iter().any(|k| (m - k).abs() < 1e-3 * k)
+/// The most labelled ticks on an axis of the error plot (labels up to ~7 characters in 800 × 560 pixels).
+const MAX_TICKS: usize = 10;
+/// The most lines of the faint grid between the labelled ticks.
+const MAX_GRID_LINES: usize = 60;
+
+/// Mantissas of the ticks of a log axis, in tenths (sparsest set first): 1·10ᵏ; 1, 3; 1, 2, 5; 1, 2, 3, 5;
+/// 1…9; then steps of 0.5, 0.2 and 0.1, so that an axis spanning less than a decade still gets ticks.
+fn mantissa_sets() -> [Vec<u32>; 8] {
+    let step = |d: u32| (10..100).step_by(d as usize).collect::<Vec<u32>>();
+    [vec![10], vec![10, 30], vec![10, 20, 50], vec![10, 20, 30, 50], step(10), step(5), step(2), step(1)]
 }
 
-/// Tick labels of the time axis: plain numbers, few digits.
-fn format_tick(v: f64) -> String {
-    if v >= 10.0 {
-        format!("{v:.0}")
-    } else if v >= 1.0 {
-        format!("{v:.1}")
+/// The values `m/10 · 10ᵏ` (m from `mantissas`, in tenths) within `[lo, hi]`, every `stride`-th decade.
+fn ticks_of(lo: f64, hi: f64, mantissas: &[u32], stride: i32) -> Vec<f64> {
+    let (k0, k1) = (lo.log10().floor() as i32, hi.log10().floor() as i32);
+    let mut ticks = Vec::new();
+    for k in (k0..=k1).filter(|k| k.rem_euclid(stride) == 0) {
+        for &m in mantissas {
+            let v = f64::from(m) * 10f64.powi(k - 1);
+            if v >= lo && v <= hi {
+                ticks.push(v);
+            }
+        }
+    }
+    ticks
+}
+
+/// The ticks of a log axis over `[lo, hi]` (0 < lo < hi): the densest set of [`mantissa_sets`] that puts
+/// at most `max` ticks there — every power of ten, or every n-th, when even those are too many; at least
+/// two where `max` allows (every n-th tick of a denser set, for a narrow range and a small `max`). Each is
+/// distinct, in increasing order, and labelled distinctly by [`tick_label`]. (plotters' own log ticks repeat
+/// each power of ten below the top one, have none in a range without a power of ten, and their labels at
+/// two decimals repeated: "0.00" for 0.001, 0.002 and 0.003.)
+#[must_use]
+pub fn log_ticks(lo: f64, hi: f64, max: usize) -> Vec<f64> {
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+        return Vec::new();
+    }
+    let max = max.max(1);
+    let mut best = ticks_of(lo, hi, &[10], 1);
+    if best.len() > max {
+        let stride = best.len().div_ceil(max) as i32;
+        return ticks_of(lo, hi, &[10], stride);
+    }
+    for set in &mantissa_sets()[1..] {
+        let ticks = ticks_of(lo, hi, set, 1);
+        if ticks.len() <= max && ticks.len() > best.len() {
+            best = ticks;
+        }
+    }
+    if best.len() < 2 {
+        // A narrow range and few ticks allowed: every n-th of the first set with two or more there.
+        if let Some(ticks) = mantissa_sets().iter().map(|set| ticks_of(lo, hi, set, 1)).find(|t| t.len() >= 2) {
+            let stride = ticks.len().div_ceil(max);
+            best = ticks.into_iter().step_by(stride).collect();
+        }
+    }
+    best
+}
+
+/// The label of a tick `m·10ᵏ` of [`log_ticks`] (m with at most one decimal): plain digits from 0.001 to
+/// 99999 ("0.002", "0.15", "20"), `m`e`k` beyond ("2e-5", "1.5e6"). Exact, so distinct ticks get distinct
+/// labels.
+#[must_use]
+pub fn tick_label(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return format!("{v}");
+    }
+    let mut k = (v.log10() + 1e-9).floor() as i32;
+    let mut tenths = (v / 10f64.powi(k - 1)).round() as u32;
+    if tenths >= 100 {
+        tenths /= 10;
+        k += 1;
+    }
+    let mantissa_decimals = i32::from(tenths % 10 != 0);
+    if (-3..5).contains(&k) {
+        let decimals = (mantissa_decimals - k).max(0) as usize;
+        format!("{v:.decimals$}")
+    } else if mantissa_decimals == 1 {
+        format!("{}.{}e{k}", tenths / 10, tenths % 10)
     } else {
-        format!("{v:.2}")
+        format!("{}e{k}", tenths / 10)
     }
 }
 
@@ -217,4 +288,55 @@ fn encode_png(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<Vec<u8>> {
     let mut out = Vec::new();
     ::image::codecs::png::PngEncoder::new(&mut out).write_image(rgb, w, h, ::image::ExtendedColorType::Rgb8).map_err(|e| anyhow!("PNG encoding: {e}"))?;
     Ok(out)
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Over ranges from a ninth of a decade to thirty decades: increasing ticks within the range, at most
+    /// the maximum, at least two, and labels that are distinct and read back as their ticks.
+    #[test]
+    fn ticks_and_their_labels_are_distinct() {
+        let mut lo = 1.7e-9;
+        while lo < 1e6 {
+            for ratio in [1.3, 1.5625, 3.0, 9.0, 12.0, 150.0, 1e4, 1e30] {
+                let hi = lo * ratio;
+                for max in [MAX_TICKS, MAX_GRID_LINES, 3] {
+                    let ticks = log_ticks(lo, hi, max);
+                    assert!(!ticks.is_empty() && ticks.len() <= max, "{lo}..{hi}: {ticks:?}");
+                    assert!(ticks.windows(2).all(|w| w[0] < w[1]) && ticks.iter().all(|&t| t >= lo && t <= hi), "{lo}..{hi}: {ticks:?}");
+                    assert!(ticks.len() >= 2, "{lo}..{hi} (max {max}): {ticks:?}");
+                    let labels: Vec<String> = ticks.iter().map(|&t| tick_label(t)).collect();
+                    let mut distinct = labels.clone();
+                    distinct.dedup();
+                    assert_eq!(distinct, labels, "{lo}..{hi}");
+                    for (t, l) in ticks.iter().zip(&labels) {
+                        let back: f64 = l.parse().unwrap();
+                        assert!((back - t).abs() <= 1e-9 * t, "{t} labelled {l}");
+                    }
+                }
+            }
+            lo *= 1.37;
+        }
+    }
+
+    /// The ranges that repeated labels before: a short render's time axis (0.0008 s to 0.06 s: "0.00" for
+    /// 0.001, 0.002, 0.003; "0.01" for 0.005 and twice for 0.01, which plotters also ticked twice) and a
+    /// sub-decade error axis that had no tick at all.
+    #[test]
+    fn the_ranges_that_repeated_labels() {
+        let t = log_ticks(0.0008, 0.06, MAX_TICKS);
+        let labels: Vec<String> = t.iter().map(|&v| tick_label(v)).collect();
+        assert_eq!(labels, ["0.001", "0.002", "0.003", "0.005", "0.01", "0.02", "0.03", "0.05"]);
+        let labels: Vec<String> = log_ticks(0.3, 0.9, MAX_TICKS).iter().map(|&v| tick_label(v)).collect();
+        assert_eq!(labels, ["0.3", "0.4", "0.5", "0.6", "0.7", "0.8", "0.9"]);
+        // Thirty decades: every fourth power of ten.
+        let labels: Vec<String> = log_ticks(1e-12, 1e18, MAX_TICKS).iter().map(|&v| tick_label(v)).collect();
+        assert_eq!(labels, ["1e-12", "1e-8", "1e-4", "1", "10000", "1e8", "1e12", "1e16"]);
+        assert_eq!(tick_label(1.5e-5), "1.5e-5");
+        assert_eq!(tick_label(0.15), "0.15");
+        assert_eq!(tick_label(25.0), "25");
+    }
 }

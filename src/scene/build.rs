@@ -14,64 +14,32 @@
 
 use std::path::{Path, PathBuf};
 
-use super::delta_light;
-use super::desc::{
-    AreaEmitterType, EmitterDesc, EmitterType, PluginDesc, RadianceDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ShapeType,
-    ToWorld, TransformOp,
-};
+use super::desc::{PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
 use super::material::Materials;
 use super::textures::Textures;
-use super::plugins::{self, check_keys, Role};
+use super::plugins::{self, Role};
 use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
-use super::transform::{invertible_linear_part, to_world_matrix};
+use super::transform::{invertible_linear_part, to_world_matrix, to_world_value};
 use super::xml::Places;
 use super::Scene;
 use crate::camera::{Camera, CameraError, FovAxis};
 use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
-use crate::mesh::{shapes, TriangleMesh};
+use crate::emitter::{self, Emitter};
+use crate::mesh::TriangleMesh;
+use crate::shape::{self, LoadError, Shape, ShapeModel};
 use crate::texture::{Texture, BARYCENTRIC_UVS};
-
-/// Default sphere tessellation: 128 rings × 256 segments = 65,024 triangles. The chord error is at most
-/// radius·(1 − cos(π/128)) = 3.0e-4·radius (a conservative bound on the distance between the triangles and
-/// the true sphere); shading uses the exact per-vertex normals interpolated, so reflections stay smooth.
-pub const SPHERE_RINGS: u32 = 128;
-pub const SPHERE_SEGMENTS: u32 = 256;
-/// Upper limit on the triangles of one tessellated sphere (2·rings·segments).
-const SPHERE_MAX_TRIANGLES: u64 = 1 << 26;
-
-/// Where a shape's triangles come from (object space).
-enum Geometry {
-    File {
-        path: PathBuf,
-        flip_tex_coords: bool,
-    },
-    /// Shape `shape_index` of a Mitsuba serialized file.
-    Serialized {
-        path: PathBuf,
-        shape_index: u32,
-    },
-    Rectangle,
-    Cube,
-    Sphere {
-        center: Vec3,
-        radius: f32,
-        rings: u32,
-        segments: u32,
-    },
-}
 
 /// A checked shape, ready to load.
 struct ShapePlan {
     key: String,
-    geometry: Geometry,
+    shape: Shape,
     to_world: Mat4,
     linear: Mat3,
     det: f32,
-    flat: bool,
     flip: bool,
     material: u32,
     /// An area emitter's radiance.
@@ -143,31 +111,28 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut materials = Materials::new(ctx, &file.bsdf, textures)?;
     let mut shape_plans = Vec::with_capacity(file.shape.len());
     for (i, shape) in file.shape.iter().enumerate() {
-        shape_plans.push(plan_shape(&ctx, &join_index("shape", i), shape, base_dir, &mut materials)?);
+        shape_plans.push(plan_shape(ctx, &join_index("shape", i), shape, &mut materials)?);
     }
     let mut emitter_plans = Vec::with_capacity(file.emitter.len());
     for (i, emitter) in file.emitter.iter().enumerate() {
-        emitter_plans.push(plan_emitter(&ctx, &join_index("emitter", i), emitter, base_dir)?);
+        emitter_plans.push(plan_emitter(ctx, &join_index("emitter", i), emitter, base_dir)?);
     }
     let (materials, textures) = materials.finish(ctx)?;
 
     // Phase 2: every referenced file exists.
     let files = shape_plans
         .iter()
-        .filter_map(|s| match &s.geometry {
-            Geometry::File { path, .. } | Geometry::Serialized { path, .. } => Some((join_key(&s.key, "filename"), path)),
-            _ => None,
-        })
+        .filter_map(|s| Some((join_key(&s.key, "filename"), base_dir.join(s.shape.filename()?))))
         .chain(emitter_plans.iter().filter_map(|e| match e {
-            EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path)),
+            EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path.clone())),
             EmitterPlan::Constant { .. } | EmitterPlan::Delta(_) => None,
         }));
     for (key, path) in files {
         if !path.exists() {
-            return Err(ctx.missing_file(&key, path));
+            return Err(ctx.missing_file(&key, &path));
         }
         if !path.is_file() {
-            return Err(ctx.asset_error(&key, path, "not a regular file"));
+            return Err(ctx.asset_error(&key, &path, "not a regular file"));
         }
     }
 
@@ -183,7 +148,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
     for plan in &shape_plans {
-        let mut placed = load_and_place(&ctx, plan)?;
+        let mut placed = load_and_place(ctx, plan, base_dir)?;
         let base = mesh.triangle_count();
         shape_first_triangle.push(base as u32);
         let n = placed.triangle_count();
@@ -195,7 +160,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         placed.uvs.get_or_insert_with(|| vec![Vec2::ZERO; placed.positions.len()]);
         mesh.append(&placed);
         tri_material.extend(std::iter::repeat_n(plan.material, n));
-        tri_flat.extend(std::iter::repeat_n(plan.flat, n));
+        tri_flat.extend(std::iter::repeat_n(plan.shape.flat(), n));
         if let Some(radiance) = &plan.radiance {
             let triangles: Vec<(u32, [Vec3; 3])> = (0..n).map(|i| ((base + i) as u32, placed.triangle(i))).collect();
             let light = match radiance {
@@ -390,198 +355,78 @@ fn rfilter(ctx: &ErrorContext, d: &PluginDesc) -> Result<PixelFilter, SceneError
     plugins::build(ctx, "sensor.film.rfilter", Role::RFilter, filter::PLUGINS, d, |_, _| Ok(()))
 }
 
-/// Rejects keys that do not apply to the shape's type.
-fn check_shape_keys(ctx: &ErrorContext, key: &str, s: &ShapeDesc) -> Result<(), SceneError> {
-    let present = [
-        ("filename", s.filename.is_some()),
-        ("shape_index", s.shape_index.is_some()),
-        ("face_normals", s.face_normals.is_some()),
-        ("flip_tex_coords", s.flip_tex_coords.is_some()),
-        ("center", s.center.is_some()),
-        ("radius", s.radius.is_some()),
-        ("rings", s.rings.is_some()),
-        ("segments", s.segments.is_some()),
-    ];
-    check_keys(ctx, key, Role::Shape, s.kind.name(), &present)
-}
-
-fn plan_shape(ctx: &ErrorContext, key: &str, s: &ShapeDesc, base_dir: &Path, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
-    check_shape_keys(ctx, key, s)?;
-    let geometry = match s.kind {
-        ShapeType::Obj | ShapeType::Ply => {
-            let Some(filename) = &s.filename else {
-                return Err(ctx.key_error(key, format!("shape type `{}` needs `filename`", s.kind.name())));
-            };
-            let lower = filename.to_ascii_lowercase();
-            let ok = match s.kind {
-                ShapeType::Obj => lower.ends_with(".obj"),
-                _ => lower.ends_with(".ply") || lower.ends_with(".ply.gz"),
-            };
-            if !ok {
-                let expected = if s.kind == ShapeType::Obj { ".obj" } else { ".ply or .ply.gz" };
-                return Err(ctx.key_error(
-                    &join_key(key, "filename"),
-                    format!("a `{}` shape needs a {expected} file, got {}", s.kind.name(), super::error::shown(filename)),
-                ));
-            }
-            Geometry::File {
-                path: base_dir.join(filename),
-                flip_tex_coords: s.flip_tex_coords.unwrap_or(true),
-            }
-        }
-        // Mitsuba reads any file name: the format id inside tells (`mesh::serialized`).
-        ShapeType::Serialized => {
-            let Some(filename) = &s.filename else {
-                return Err(ctx.key_error(key, "shape type `serialized` needs `filename`"));
-            };
-            Geometry::Serialized {
-                path: base_dir.join(filename),
-                shape_index: s.shape_index.unwrap_or(0),
-            }
-        }
-        ShapeType::Rectangle => Geometry::Rectangle,
-        ShapeType::Cube => Geometry::Cube,
-        ShapeType::Sphere => {
-            let center = ctx.finite3(&join_key(key, "center"), Vec3::from(s.center.unwrap_or_default()))?;
-            let radius = ctx.positive(&join_key(key, "radius"), s.radius.unwrap_or(1.0), "the radius")?;
-            let rings = s.rings.unwrap_or(SPHERE_RINGS);
-            let segments = s.segments.unwrap_or(SPHERE_SEGMENTS);
-            if rings < 2 {
-                return Err(ctx.key_error(&join_key(key, "rings"), format!("a sphere needs at least 2 rings, got {rings}")));
-            }
-            if segments < 3 {
-                return Err(ctx.key_error(
-                    &join_key(key, "segments"),
-                    format!("a sphere needs at least 3 segments, got {segments}"),
-                ));
-            }
-            if 2 * u64::from(rings) * u64::from(segments) > SPHERE_MAX_TRIANGLES {
-                return Err(ctx.key_error(
-                    key,
-                    format!("rings × segments = {rings} × {segments} gives more than 2^26 triangles"),
-                ));
-            }
-            Geometry::Sphere {
-                center,
-                radius,
-                rings,
-                segments,
-            }
-        }
-    };
+/// A shape's table at `key` → its plan: the shape type's own keys read by its plugin (`crate::shape`), the
+/// keys every shape takes (`shape::COMMON_KEYS`) read here.
+fn plan_shape(ctx: &ErrorContext, key: &str, d: &ShapeDesc, materials: &mut Materials) -> Result<ShapePlan, SceneError> {
+    let shape = plugins::build(ctx, key, Role::Shape, shape::PLUGINS, &d.plugin, |_, _| Ok(()))?;
     let to_world_key = join_key(key, "to_world");
-    let to_world = to_world_matrix(ctx, &to_world_key, s.to_world.as_ref())?;
+    let to_world = to_world_matrix(ctx, &to_world_key, d.to_world.as_ref())?;
     let (linear, det) = invertible_linear_part(ctx, &to_world_key, to_world)?;
-    let material = materials.index_for(ctx, &join_key(key, "bsdf"), s.bsdf.as_ref(), s.emitter.is_some())?;
-    let radiance = match &s.emitter {
-        None => None,
-        Some(e) => {
-            let at = join_key(&join_key(key, "emitter"), "radiance");
-            Some(match (e.kind, &e.radiance) {
-                (AreaEmitterType::Area, RadianceDesc::Colour(c)) => PlannedRadiance::Constant(ctx.radiance(&at, *c)?),
-                (AreaEmitterType::Area, RadianceDesc::Texture(value)) => {
-                    let texture = materials.texture(ctx, &at, value)?;
-                    for (what, v) in [("minimum", texture.min()), ("maximum", texture.max())] {
-                        crate::props::radiance(v).map_err(|m| ctx.key_error(&at, format!("the texture's {what}: {m}")))?;
-                    }
-                    PlannedRadiance::Texture(texture)
-                }
-            })
-        }
-    };
-    // Rectangles and cubes are flat by construction; meshes and spheres when face_normals = true.
-    let flat = matches!(s.kind, ShapeType::Rectangle | ShapeType::Cube) || s.face_normals.unwrap_or(false);
+    let bsdf_key = join_key(key, "bsdf");
+    let material = materials.index_for(ctx, &bsdf_key, d.bsdf.as_ref(), d.emitter.is_some())?;
+    let radiance = d.emitter.as_ref().map(|e| area_emitter(ctx, &join_key(key, "emitter"), e, materials)).transpose()?;
     Ok(ShapePlan {
         key: key.to_string(),
-        geometry,
+        shape,
         to_world,
         linear,
         det,
-        flat,
-        flip: s.flip_normals.unwrap_or(false),
+        flip: d.flip_normals.unwrap_or(false),
         material,
         radiance,
     })
 }
 
-fn plan_emitter(ctx: &ErrorContext, key: &str, e: &EmitterDesc, base_dir: &Path) -> Result<EmitterPlan, SceneError> {
-    let present = [
-        ("filename", e.filename.is_some()),
-        ("scale", e.scale.is_some()),
-        ("to_world", e.to_world.is_some()),
-        ("radiance", e.radiance.is_some()),
-        ("intensity", e.intensity.is_some()),
-        ("position", e.position.is_some()),
-        ("cutoff_angle", e.cutoff_angle.is_some()),
-        ("beam_width", e.beam_width.is_some()),
-        ("irradiance", e.irradiance.is_some()),
-        ("direction", e.direction.is_some()),
-    ];
-    check_keys(ctx, key, Role::Emitter, e.kind.name(), &present)?;
-    Ok(match e.kind {
-        EmitterType::Envmap => {
-            let Some(filename) = &e.filename else {
-                return Err(ctx.key_error(key, "emitter type `envmap` needs `filename`"));
-            };
-            let scale_key = join_key(key, "scale");
-            let scale = ctx.finite(&scale_key, e.scale.unwrap_or(1.0))?;
-            if scale < 0.0 {
-                return Err(ctx.key_error(&scale_key, format!("the scale must be ≥ 0, got {scale}")));
-            }
-            let to_world_key = join_key(key, "to_world");
-            let to_world = to_world_matrix(ctx, &to_world_key, e.to_world.as_ref())?;
-            invertible_linear_part(ctx, &to_world_key, to_world)?;
-            EmitterPlan::Env {
-                key: key.to_string(),
-                path: base_dir.join(filename),
-                scale,
-                to_world,
-            }
-        }
-        EmitterType::Constant => {
-            let radiance = e
-                .radiance
-                .map_or(Ok(Vec3::ONE), |c| ctx.radiance(&join_key(key, "radiance"), c.0))?;
-            EmitterPlan::Constant { radiance }
-        }
-        EmitterType::Point => EmitterPlan::Delta(delta_light::point(ctx, key, e)?),
-        EmitterType::Spot => EmitterPlan::Delta(delta_light::spot(ctx, key, e)?),
-        EmitterType::Directional => EmitterPlan::Delta(delta_light::directional(ctx, key, e)?),
+/// A shape's `emitter` at `key`: an `area` emitter (`crate::emitter`), its radiance a colour or a texture.
+fn area_emitter(ctx: &ErrorContext, key: &str, table: &toml::Table, materials: &mut Materials) -> Result<PlannedRadiance, SceneError> {
+    let d = PluginDesc::from_table(table.clone()).map_err(|m| ctx.key_error(key, m))?;
+    if d.kind != emitter::AREA && emitter::plugin(&d.kind).is_some() {
+        let message = format!("a shape's emitter is an `area` emitter; a `{}` emitter stands alone ([[emitter]] in TOML, <emitter> outside any <shape> in XML)", d.kind);
+        return Err(ctx.key_error(&join_key(key, "type"), message));
+    }
+    let mut texture = None;
+    let built = plugins::build_textured(ctx, key, Role::Emitter, emitter::PLUGINS, &d, |_, _| Ok(Mat4::IDENTITY), |at, _, v| {
+        let t = materials.texture(ctx, at, v)?;
+        let summary = t.summary();
+        texture = Some(t);
+        Ok(summary)
+    })?;
+    match (built, texture) {
+        (Emitter::Area { .. }, Some(t)) => Ok(PlannedRadiance::Texture(t)),
+        (Emitter::Area { radiance }, None) => Ok(PlannedRadiance::Constant(radiance)),
+        _ => unreachable!("only the area type passes the check above"),
+    }
+}
+
+/// A top-level emitter's table at `key` → its plan (`crate::emitter`; its `to_world` read here).
+fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path) -> Result<EmitterPlan, SceneError> {
+    if d.kind == emitter::AREA {
+        let message = "an `area` emitter is attached to a shape: `emitter = { type = \"area\", … }` in its [[shape]] (in XML, inside its <shape>)";
+        return Err(ctx.key_error(&join_key(key, "type"), message));
+    }
+    let built = plugins::build(ctx, key, Role::Emitter, emitter::PLUGINS, d, |at, v| to_world_value(ctx, at, v))?;
+    Ok(match built {
+        Emitter::Env { filename, scale, to_world } => EmitterPlan::Env {
+            key: key.to_string(),
+            path: base_dir.join(filename),
+            scale,
+            to_world,
+        },
+        Emitter::Constant { radiance } => EmitterPlan::Constant { radiance },
+        Emitter::Delta(light) => EmitterPlan::Delta(light),
+        Emitter::Area { .. } => unreachable!("refused above"),
     })
 }
 
 /// The shape's triangles in world space, with per-vertex normals.
-fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, SceneError> {
-    let mut mesh = match &plan.geometry {
-        Geometry::File { path, flip_tex_coords } => {
-            let key = join_key(&plan.key, "filename");
-            let mut mesh = crate::mesh::load_mesh(path).map_err(|e| ctx.asset_error(&key, path, e.to_string()))?;
-            check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
-            // Mitsuba's OBJ and PLY readers (obj.cpp, ply.cpp: `flip_tex_coords`, default true).
-            if let (Some(uvs), true) = (&mut mesh.uvs, *flip_tex_coords) {
-                uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
-            }
-            mesh
+fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan, base_dir: &Path) -> Result<TriangleMesh, SceneError> {
+    let mut mesh = plan.shape.triangles(base_dir).map_err(|e| match e {
+        LoadError::File(m) => {
+            let path = base_dir.join(plan.shape.filename().unwrap_or_default());
+            ctx.asset_error(&join_key(&plan.key, "filename"), &path, m)
         }
-        Geometry::Serialized { path, shape_index } => {
-            let key = join_key(&plan.key, "filename");
-            let asset_error = |e: crate::error::MeshError| match e {
-                crate::error::MeshError::ShapeIndexOutOfRange { .. } => ctx.key_error(&join_key(&plan.key, "shape_index"), e.to_string()),
-                _ => ctx.asset_error(&key, path, e.to_string()),
-            };
-            let mesh = crate::mesh::serialized::load_serialized(path, *shape_index).map_err(asset_error)?.mesh;
-            check_mesh(&mesh).map_err(|m| ctx.asset_error(&key, path, m))?;
-            mesh
-        }
-        Geometry::Rectangle => shapes::rectangle(),
-        Geometry::Cube => shapes::cube(),
-        Geometry::Sphere {
-            center,
-            radius,
-            rings,
-            segments,
-        } => shapes::sphere(*center, *radius, *rings, *segments),
-    };
+        LoadError::Key(k, m) => ctx.key_error(&join_key(&plan.key, k), m),
+    })?;
     let m = plan.to_world;
     for p in &mut mesh.positions {
         *p = m.transform_point3(*p);
@@ -612,27 +457,6 @@ fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan) -> Result<TriangleMesh, 
     };
     mesh.normals = Some(normals);
     Ok(mesh)
-}
-
-/// Structural checks of a loaded mesh (the loaders should guarantee them; a bad file must not panic later).
-fn check_mesh(mesh: &TriangleMesh) -> Result<(), String> {
-    if mesh.indices.is_empty() {
-        return Err("the mesh has no triangles".into());
-    }
-    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(format!("vertex {i} is not finite"));
-    }
-    let n = mesh.positions.len();
-    if let Some(t) = mesh.indices.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
-        return Err(format!("triangle {t} indexes a vertex past the {n} given"));
-    }
-    if mesh.normals.as_ref().is_some_and(|v| v.len() != n) {
-        return Err("the mesh has a different number of normals and positions".into());
-    }
-    if mesh.uvs.as_ref().is_some_and(|v| v.len() != n) {
-        return Err("the mesh has a different number of uvs and positions".into());
-    }
-    Ok(())
 }
 
 /// Angle-weighted vertex normals (Thürmer & Wüthrich 1998), as Mitsuba computes them for meshes without

@@ -31,8 +31,9 @@ pub(crate) struct SceneFile {
     pub texture: BTreeMap<String, PluginDesc>,
     #[serde(default)]
     pub shape: Vec<ShapeDesc>,
+    /// Emitters that stand alone (`crate::emitter`); area emitters are a shape's `emitter`.
     #[serde(default)]
-    pub emitter: Vec<EmitterDesc>,
+    pub emitter: Vec<PluginDesc>,
 }
 
 #[derive(Debug, DeriveDeserialize)]
@@ -128,7 +129,7 @@ impl Default for FilmDesc {
     }
 }
 
-/// A plugin's table (a bsdf, a filter): its `type` and its other keys, which the type's own constructor
+/// A plugin's table (a bsdf, a shape, an emitter, a filter, a texture): its `type` and its other keys, which the type's own constructor
 /// reads (`crate::props::Plugin`, found and checked by `plugins::build`).
 #[derive(Debug)]
 pub(crate) struct PluginDesc {
@@ -150,6 +151,49 @@ impl PluginDesc {
 impl<'de> Deserialize<'de> for PluginDesc {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         PluginDesc::from_table(toml::Table::deserialize(deserializer)?).map_err(D::Error::custom)
+    }
+}
+
+/// A `[[shape]]` table: the keys every shape takes (`crate::shape::COMMON_KEYS`), read here as they stream
+/// from the document so that an error inside one keeps its exact place, and the shape type's own table
+/// (`crate::shape`: its type reads its keys).
+#[derive(Debug)]
+pub(crate) struct ShapeDesc {
+    pub plugin: PluginDesc,
+    pub to_world: Option<ToWorld>,
+    pub bsdf: Option<BsdfRef>,
+    /// An area emitter's table (`crate::emitter`).
+    pub emitter: Option<toml::Table>,
+    pub flip_normals: Option<bool>,
+}
+
+impl<'de> Deserialize<'de> for ShapeDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ShapeDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a shape table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ShapeDesc, A::Error> {
+                let (mut to_world, mut bsdf, mut emitter, mut flip_normals) = (None, None, None, None);
+                let mut own = toml::Table::new();
+                while let Some(key) = map.next_key::<String>()? {
+                    match key.as_str() {
+                        "to_world" => to_world = Some(map.next_value()?),
+                        "bsdf" => bsdf = Some(map.next_value()?),
+                        "emitter" => emitter = Some(map.next_value()?),
+                        "flip_normals" => flip_normals = Some(map.next_value()?),
+                        _ => {
+                            own.insert(key, map.next_value()?);
+                        }
+                    }
+                }
+                let plugin = PluginDesc::from_table(own).map_err(A::Error::custom)?;
+                Ok(ShapeDesc { plugin, to_world, bsdf, emitter, flip_normals })
+            }
+        }
+        deserializer.deserialize_map(V)
     }
 }
 
@@ -190,11 +234,7 @@ impl BsdfRef {
     }
 }
 
-/// An RGB triple written as one number (gray) or `[r, g, b]`. Range checks happen where the meaning is known.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Colour(pub Vec3);
-
-/// Reads a number or an array of exactly three numbers (colours, `scale`).
+/// Reads a number or an array of exactly three numbers (`scale`).
 struct NumberOrTriple(&'static str);
 
 impl<'de> Visitor<'de> for NumberOrTriple {
@@ -217,14 +257,6 @@ impl<'de> Visitor<'de> for NumberOrTriple {
             [x, y, z] => Ok(Vec3::new(*x, *y, *z)),
             _ => Err(A::Error::invalid_length(v.len(), &self)),
         }
-    }
-}
-
-impl<'de> Deserialize<'de> for Colour {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserializer
-            .deserialize_any(NumberOrTriple("a number (gray) or an array [r, g, b]"))
-            .map(Colour)
     }
 }
 
@@ -291,139 +323,4 @@ impl<'de> Deserialize<'de> for ToWorld {
         }
         deserializer.deserialize_any(V)
     }
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum ShapeType {
-    Obj,
-    Ply,
-    Serialized,
-    Rectangle,
-    Cube,
-    Sphere,
-}
-
-impl ShapeType {
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            ShapeType::Obj => "obj",
-            ShapeType::Ply => "ply",
-            ShapeType::Serialized => "serialized",
-            ShapeType::Rectangle => "rectangle",
-            ShapeType::Cube => "cube",
-            ShapeType::Sphere => "sphere",
-        }
-    }
-}
-
-#[derive(Debug, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct ShapeDesc {
-    #[serde(rename = "type")]
-    pub kind: ShapeType,
-    pub filename: Option<String>,
-    /// Which shape of a `serialized` file (default 0, its first).
-    pub shape_index: Option<u32>,
-    pub face_normals: Option<bool>,
-    /// OBJ and PLY: `v ↦ 1 − v` on the file's texture coordinates (Mitsuba's default, true).
-    pub flip_tex_coords: Option<bool>,
-    pub flip_normals: Option<bool>,
-    pub center: Option<[f32; 3]>,
-    pub radius: Option<f32>,
-    pub rings: Option<u32>,
-    pub segments: Option<u32>,
-    pub to_world: Option<ToWorld>,
-    pub bsdf: Option<BsdfRef>,
-    pub emitter: Option<AreaEmitterDesc>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum AreaEmitterType {
-    Area,
-}
-
-#[derive(Debug, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct AreaEmitterDesc {
-    #[serde(rename = "type")]
-    pub kind: AreaEmitterType,
-    pub radiance: RadianceDesc,
-}
-
-/// An area emitter's `radiance`: a colour (a number or `[r, g, b]`), or a texture: a table, inline with its
-/// `type` or `{ texture = "<name>" }` (read by `scene::textures`).
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum RadianceDesc {
-    Colour(Vec3),
-    Texture(toml::Value),
-}
-
-impl<'de> Deserialize<'de> for RadianceDesc {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        const COLOUR: NumberOrTriple = NumberOrTriple("a number (gray), an array [r, g, b] or a texture table");
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = RadianceDesc;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                COLOUR.expecting(f)
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<RadianceDesc, E> {
-                COLOUR.visit_f64(v).map(RadianceDesc::Colour)
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<RadianceDesc, E> {
-                COLOUR.visit_i64(v).map(RadianceDesc::Colour)
-            }
-            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<RadianceDesc, E> {
-                COLOUR.visit_u64(v).map(RadianceDesc::Colour)
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<RadianceDesc, A::Error> {
-                COLOUR.visit_seq(seq).map(RadianceDesc::Colour)
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RadianceDesc, A::Error> {
-                toml::Table::deserialize(MapAccessDeserializer::new(map)).map(|t| RadianceDesc::Texture(toml::Value::Table(t)))
-            }
-        }
-        deserializer.deserialize_any(V)
-    }
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum EmitterType {
-    Envmap,
-    Constant,
-    Point,
-    Spot,
-    Directional,
-}
-
-impl EmitterType {
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            EmitterType::Envmap => "envmap",
-            EmitterType::Constant => "constant",
-            EmitterType::Point => "point",
-            EmitterType::Spot => "spot",
-            EmitterType::Directional => "directional",
-        }
-    }
-}
-
-#[derive(Debug, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct EmitterDesc {
-    #[serde(rename = "type")]
-    pub kind: EmitterType,
-    pub filename: Option<String>,
-    pub scale: Option<f32>,
-    pub to_world: Option<ToWorld>,
-    pub radiance: Option<Colour>,
-    pub intensity: Option<Colour>,
-    pub position: Option<[f32; 3]>,
-    pub cutoff_angle: Option<f32>,
-    pub beam_width: Option<f32>,
-    pub irradiance: Option<Colour>,
-    pub direction: Option<[f32; 3]>,
 }

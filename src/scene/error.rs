@@ -99,28 +99,7 @@ impl SceneError {
     }
 }
 
-/// Characters of a value written in a scene file that messages echo: a value can be megabytes long (a
-/// hostile or broken file), and a message shows enough of it to find it.
-const SHOWN_CHARS: usize = 80;
-
-/// A value written in a scene file as messages show it: quoted (as `{:?}` quotes it), and when longer than
-/// [`SHOWN_CHARS`] characters cut there, with its length: `"0.5 0.5 0.5 …"… (20971520 bytes)`. Every
-/// message that echoes a value, name or attribute of a scene file uses it, or [`cut`] where it is not
-/// quoted.
-pub(crate) fn shown(value: &str) -> String {
-    match value.char_indices().nth(SHOWN_CHARS) {
-        None => format!("{value:?}"),
-        Some((end, _)) => format!("{:?}… ({} bytes)", &value[..end], value.len()),
-    }
-}
-
-/// [`shown`] unquoted: a tag, a file name or a name between backticks.
-pub(crate) fn cut(value: &str) -> std::borrow::Cow<'_, str> {
-    match value.char_indices().nth(SHOWN_CHARS) {
-        None => std::borrow::Cow::Borrowed(value),
-        Some((end, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &value[..end], value.len())),
-    }
-}
+pub(crate) use crate::props::{cut, shown, SHOWN_CHARS};
 
 /// A message of another parser (XML, TOML), which may echo a value of any length, cut as [`shown`] cuts
 /// values: its beginning and end are kept, the middle of a long one is left out.

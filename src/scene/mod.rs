@@ -77,7 +77,7 @@
 //! type = "constant"
 //! radiance = 0.05              # default 1
 //!
-//! [[emitter]]                  # delta lights (module `delta_light`): point, spot, directional
+//! [[emitter]]                  # delta lights (`crate::emitter`): point, spot, directional
 //! type = "point"
 //! position = [0, 1.5, 0]       # or to_world, not both
 //! intensity = 2                # W/sr, default 1
@@ -96,7 +96,7 @@
 //! **Transforms** (`transform`): `to_world` is one table or a list; in a list **the first element is
 //! applied first** (Mitsuba's XML order), so the floor above is rotated, then translated.
 //!
-//! **Shapes** (`build`): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres are
+//! **Shapes** (`crate::shape`: one file per type; `build` places them): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres are
 //! tessellated (128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius) with smooth normals; meshes
 //! (obj, ply, serialized) use their vertex normals (angle-weighted normals are computed when the file has none) unless
 //! `face_normals = true`. Normals transform with the inverse transpose, and the winding of mirrored shapes
@@ -109,7 +109,6 @@ pub mod aov;
 mod build;
 mod clip;
 mod convert;
-mod delta_light;
 mod desc;
 mod error;
 mod interaction;
@@ -128,7 +127,6 @@ mod xml;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-pub use build::{SPHERE_RINGS, SPHERE_SEGMENTS};
 pub use convert::convert_scene;
 pub use error::SceneError;
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};

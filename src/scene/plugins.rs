@@ -1,9 +1,9 @@
 //! The plugin types caustica renders and the keys each takes, behind the key checks of both scene formats
 //! (a key that does not apply to its plugin's type is an error naming the type's keys) and behind the XML
-//! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). BSDF and
-//! filter types are listed where their values are defined (`crate::bsdf::PLUGINS`: one file per BSDF with
-//! its keys, defaults, checks and constructor; `crate::film::filter::PLUGINS`) and built by [`build`];
-//! shapes and emitters are the rows of `TYPES` here, built in `scene::build`.
+//! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). Each role's
+//! types are listed where their values are defined, one file per type with its keys, defaults, checks and
+//! constructor (`crate::bsdf::PLUGINS`, `crate::shape::PLUGINS`, `crate::emitter::PLUGINS`,
+//! `crate::film::filter::PLUGINS`, `crate::texture::PLUGINS`), and built by [`build`].
 //!
 //! Keys keep Mitsuba's property names, so the same names serve the TOML tables and the XML properties.
 
@@ -11,6 +11,8 @@ use super::error::{ErrorContext, SceneError};
 use super::spans::join_key;
 use super::desc::PluginDesc;
 use crate::bsdf;
+use crate::emitter;
+use crate::shape;
 use crate::film::filter;
 use crate::texture;
 use crate::props::{self, Plugin, Props, Textured};
@@ -40,27 +42,11 @@ impl Role {
     /// Keys every type of the role takes beside `type` and its own.
     fn common(self) -> &'static [&'static str] {
         match self {
-            Role::Shape => &["to_world", "bsdf", "emitter", "flip_normals"],
+            Role::Shape => shape::COMMON_KEYS,
             Role::Bsdf | Role::Emitter | Role::RFilter | Role::Texture => &[],
         }
     }
 }
-
-/// (role, type, the type's own keys) of shapes and emitters. `area` is the emitter attached to a shape.
-const TYPES: &[(Role, &str, &[&str])] = &[
-    (Role::Shape, "obj", &["filename", "face_normals", "flip_tex_coords"]),
-    (Role::Shape, "ply", &["filename", "face_normals", "flip_tex_coords"]),
-    (Role::Shape, "serialized", &["filename", "shape_index", "face_normals"]),
-    (Role::Shape, "sphere", &["center", "radius", "rings", "segments", "face_normals"]),
-    (Role::Shape, "rectangle", &[]),
-    (Role::Shape, "cube", &[]),
-    (Role::Emitter, "area", &["radiance"]),
-    (Role::Emitter, "envmap", &["filename", "scale", "to_world"]),
-    (Role::Emitter, "constant", &["radiance"]),
-    (Role::Emitter, "point", &["intensity", "position", "to_world"]),
-    (Role::Emitter, "spot", &["intensity", "cutoff_angle", "beam_width", "to_world"]),
-    (Role::Emitter, "directional", &["irradiance", "direction", "to_world"]),
-];
 
 /// Every key type `name` of `role` takes (the role's common keys, then its own); `None` for an unknown type.
 pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
@@ -68,19 +54,14 @@ pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
         Role::Bsdf => bsdf::plugin(name)?.keys,
         Role::RFilter => props::find(filter::PLUGINS, name)?.keys,
         Role::Texture => props::find(texture::PLUGINS, name)?.keys,
-        _ => TYPES.iter().find(|(r, n, _)| *r == role && *n == name)?.2,
+        Role::Shape => props::find(shape::PLUGINS, name)?.keys,
+        Role::Emitter => emitter::plugin(name)?.keys,
     };
     Some(role.common().iter().chain(own.iter()).copied().collect())
 }
 
-/// The key rule: the first key of `present` (key, given) that is given but that type `name` of `role`
-/// does not take is an error at `key.<that key>`, naming the type's keys.
-pub(crate) fn check_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, present: &[(&str, bool)]) -> Result<(), SceneError> {
-    let given: Vec<&str> = present.iter().filter(|(_, given)| *given).map(|(k, _)| *k).collect();
-    check_given_keys(ctx, key, role, name, &given)
-}
-
-/// [`check_keys`] for the keys `given`.
+/// The key rule: the first key of `given` that type `name` of `role` does not take is an error at
+/// `key.<that key>`, naming the type's keys.
 pub(crate) fn check_given_keys(ctx: &ErrorContext, key: &str, role: Role, name: &str, given: &[&str]) -> Result<(), SceneError> {
     let allowed = keys(role, name).unwrap_or_default();
     match given.iter().find(|k| !allowed.contains(k)) {
@@ -149,14 +130,19 @@ mod tests {
 
     #[test]
     fn every_type_is_listed_once_with_its_keys() {
-        for (i, (role, name, _)) in TYPES.iter().enumerate() {
-            assert!(!TYPES[..i].iter().any(|(r, n, _)| r == role && n == name), "{name} twice");
+        fn names<T, C>(plugins: &[&Plugin<T, C>]) -> Vec<&'static str> {
+            plugins.iter().map(|p| p.name).collect()
+        }
+        for list in [names(bsdf::PLUGINS), names(shape::PLUGINS), names(emitter::PLUGINS), names(filter::PLUGINS), names(texture::PLUGINS)] {
+            for (i, n) in list.iter().enumerate() {
+                assert!(!list[..i].contains(n), "{n} twice");
+            }
         }
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
-        assert_eq!(keys(Role::Bsdf, "principled"), None);
+        assert_eq!(keys(Role::Emitter, "spot").unwrap(), ["intensity", "cutoff_angle", "beam_width", "to_world"]);
+        assert_eq!(keys(Role::Bsdf, "hair"), None);
+        assert_eq!(keys(Role::Shape, "shapegroup"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
-        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::RFilter).count(), 0, "filters are listed by crate::film::filter");
         assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);
-        assert_eq!(TYPES.iter().filter(|(r, ..)| *r == Role::Bsdf).count(), 0, "BSDF types are listed by crate::bsdf");
     }
 }

@@ -41,25 +41,16 @@ pub(crate) fn to_world_matrix(ctx: &ErrorContext, key: &str, to_world: Option<&T
     Ok(m)
 }
 
+/// [`to_world_matrix`] of a `to_world` value as a plugin's table holds it (a shape's, an emitter's).
+pub(crate) fn to_world_value(ctx: &ErrorContext, key: &str, value: &toml::Value) -> Result<Mat4, SceneError> {
+    use serde::Deserialize;
+    let to_world = ToWorld::deserialize(value.clone()).map_err(|e| ctx.key_error(key, e.to_string()))?;
+    to_world_matrix(ctx, key, Some(&to_world))
+}
+
 /// The linear part of an affine `to_world`, checked invertible; returns it with its determinant.
 pub(crate) fn invertible_linear_part(ctx: &ErrorContext, key: &str, m: Mat4) -> Result<(Mat3, f32), SceneError> {
-    let linear = Mat3::from_mat4(m);
-    let det = linear.determinant();
-    // Relative test: the determinant against the product of the column lengths (1 for a rotation).
-    let scale = linear.x_axis.length() * linear.y_axis.length() * linear.z_axis.length();
-    if det.is_infinite() || !scale.is_finite() {
-        return Err(ctx.key_error(
-            key,
-            format!("the transform's scale overflows f32 (determinant {det}): its columns are {:e}, {:e} and {:e} long", linear.x_axis.length(), linear.y_axis.length(), linear.z_axis.length()),
-        ));
-    }
-    if !det.is_finite() || det == 0.0 || det.abs() <= 1e-12 * scale {
-        return Err(ctx.key_error(
-            key,
-            format!("the transform is singular (determinant {det}); a zero scale flattens the shape"),
-        ));
-    }
-    Ok((linear, det))
+    crate::math::invertible_linear_part(m).map_err(|message| ctx.key_error(key, message))
 }
 
 fn op_matrix(ctx: &ErrorContext, key: &str, op: &TransformOp) -> Result<Mat4, SceneError> {

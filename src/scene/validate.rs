@@ -22,11 +22,6 @@ impl ErrorContext {
         props::finite3(v).map_err(|m| self.key_error(key, m))
     }
 
-    /// An RGB radiance: every component finite and ≥ 0.
-    pub(crate) fn radiance(&self, key: &str, v: Vec3) -> Result<Vec3, SceneError> {
-        props::radiance(v).map_err(|m| self.key_error(key, m))
-    }
-
     /// A plugin's error (its key relative to the plugin at `key`) at its place in the scene file.
     pub(crate) fn prop_error(&self, key: &str, e: PropError) -> SceneError {
         let key = if e.key.is_empty() { key.to_string() } else { join_key(key, &e.key) };

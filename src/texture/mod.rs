@@ -138,7 +138,7 @@ impl Texture {
     /// (`props::Textured`): its per-channel mean, its mean number and its per-channel maximum.
     #[must_use]
     pub fn summary(&self) -> Textured {
-        Textured { mean: self.mean_rgb(), mean_1: self.mean(), max: self.max() }
+        Textured { mean: self.mean_rgb(), mean_1: self.mean(), max: self.max(), min: self.min() }
     }
 
     /// Each channel's mean over the texture (a bitmap: over its texels; a checkerboard: half of each

@@ -15,7 +15,7 @@ fn stdout(args: &[&str]) -> String {
 fn completions_and_the_man_page_cover_every_subcommand_and_flag() {
     for shell in ["bash", "zsh", "fish"] {
         let script = stdout(&["completions", shell]);
-        for word in ["render", "merge", "converge", "convert", "estimator", "log-every", "aov"] {
+        for word in ["render", "merge", "converge", "convert", "estimator", "log-every", "aov", "log-level", "display-server"] {
             assert!(script.contains(word), "{shell} completions lack {word}");
         }
     }

@@ -133,6 +133,19 @@ fn emitter_texture_mis_matches_mitsuba() {
     matches_mitsuba("emitter-texture", Estimator::Mis, 64);
 }
 
+#[test]
+fn disk_and_cylinder_pt_match_mitsuba() {
+    // Tessellated disks and cylinders against Mitsuba's analytic ones: a disk light, Mitsuba's uvs on both
+    // (a checkerboard), a cylinder placed by p0, p1 and radius.
+    matches_mitsuba("shapes", Estimator::Pt, 512);
+}
+
+#[test]
+fn disk_and_cylinder_mis_match_mitsuba() {
+    // The glass cylinder's caustic on the floor, from photons and from BSDF-sampled paths.
+    matches_mitsuba("shapes", Estimator::Mis, 64);
+}
+
 /// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
 /// reference to a texture that does not exist are errors at their keys.
 #[test]
@@ -195,4 +208,15 @@ fn pplastic_pt_matches_mitsuba() {
 #[test]
 fn pplastic_mis_matches_mitsuba() {
     matches_mitsuba("pplastic", Estimator::Mis, 64);
+#[test]
+fn principled_pt_matches_mitsuba() {
+    // Rough metal with a textured roughness, a clearcoat, a glass-like spec_trans sphere, an anisotropic
+    // panel and a floor with sheen, flatness and a textured base colour.
+    matches_mitsuba("principled", Estimator::Pt, 512);
+}
+
+#[test]
+fn principled_mis_matches_mitsuba() {
+    // The glass cube's caustic on the principled floor, gathered from photons.
+    matches_mitsuba("principled", Estimator::Mis, 64);
 }

@@ -263,11 +263,17 @@ fn cli_parts_and_merge() {
     let m = run(&["merge", &path("p2.exr"), &path("p0.exr"), &path("p1.exr"), "-o", &path("merged.exr"), "--stats", &path("merge.json")]);
     assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
     assert_eq!(std::fs::read(path("merged.exr")).unwrap(), std::fs::read(path("whole.exr")).unwrap(), "merged EXR differs from the whole render's");
-    // --allow-missing says which part is missing in the stats.
+    // --allow-missing says which part is missing in the stats, and the spp merged (2 of 3), also under -q.
     let m = run(&["merge", &path("p0.exr"), &path("p2.exr"), "-o", &path("subset.exr"), "--stats", &path("subset.json"), "--allow-missing"]);
-    assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
+    let stderr = String::from_utf8_lossy(&m.stderr);
+    assert!(m.status.success(), "{stderr}");
     let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path("subset.json")).unwrap()).unwrap();
     assert_eq!(stats["missing"], serde_json::json!([1]));
+    assert_eq!((stats["spp"].as_u64(), stats["spp_merged"].as_f64(), stats["spp_merged_min"].as_u64()), (Some(3), Some(2.0), Some(2)));
+    assert!(stderr.contains("warning: merged without part(s) 1/3: the image has 2.00 spp of the 3") && stderr.contains("3 spp asked, 2.00 merged"), "{stderr}");
+    let m = run(&["merge", &path("p0.exr"), &path("p2.exr"), "-o", &path("subset.exr"), "--allow-missing", "-q"]);
+    let stderr = String::from_utf8_lossy(&m.stderr);
+    assert!(stderr.contains("2.00 spp of the 3") && !stderr.contains("merged 2 of 3 parts"), "{stderr}");
     // A time-limited part is refused before rendering.
     let t = run(&["render", &scene, "--part", "0/2", "--time-limit", "1", "-o", &path("t.exr"), "--quiet"]);
     assert_eq!(t.status.code(), Some(2));

@@ -53,7 +53,7 @@ fn bad_keys_and_types_name_the_key() {
         (
             minimal("[[shape]]\ntype = \"cube\"\n[[shape]]\ntype = \"cube\"\ncolour = 1"),
             "shape[1].colour",
-            "unknown field `colour`",
+            "`colour` does not apply to shape type `cube` (its keys: to_world, bsdf, emitter, flip_normals)",
         ),
         (
             shape_with("bsdf = { type = \"diffuse\", roughness = 0.1 }"),
@@ -70,7 +70,7 @@ fn bad_keys_and_types_name_the_key() {
             "shape[0].radius",
             "does not apply to shape type `rectangle`",
         ),
-        (minimal("[[shape]]\ntype = \"torus\""), "shape[0].type", "unknown variant `torus`"),
+        (minimal("[[shape]]\ntype = \"torus\""), "shape[0].type", "unknown shape type `torus` (caustica's: obj, ply, serialized, rectangle, cube, sphere, disk, cylinder)"),
         ("[sensor]\nfov = \"wide\"".into(), "sensor.fov", "invalid type"),
         (
             "[sensor]\nfov = 40\nfilm.width = \"big\"".into(),
@@ -131,9 +131,9 @@ fn bad_keys_and_types_name_the_key() {
             "16 numbers",
         ),
         (
-            shape_with("emitter = { type = \"area\" }"),
-            "shape[0].emitter",
-            "missing field `radiance`",
+            shape_with("emitter = { type = \"point\" }"),
+            "shape[0].emitter.type",
+            "a shape's emitter is an `area` emitter",
         ),
         (
             minimal("[[emitter]]\ntype = \"envmap\"\nradiance = 2\nfilename = \"x.exr\""),

@@ -31,7 +31,7 @@ fn ng_of(t: [Vec3; 3]) -> Vec3 {
 fn cornell_matches_the_reference_numbers() {
     let s = cornell();
     // Six rectangles and two spheres of the default tessellation.
-    let sphere_tris = 2 * caustica::scene::SPHERE_SEGMENTS as usize * (caustica::scene::SPHERE_RINGS as usize - 1);
+    let sphere_tris = 2 * caustica::shape::SPHERE_SEGMENTS as usize * (caustica::shape::SPHERE_RINGS as usize - 1);
     assert_eq!(s.triangle_count(), 12 + 2 * sphere_tris);
     assert_eq!(s.tri_material.len(), s.triangle_count());
     assert_eq!(s.tri_flat.len(), s.triangle_count());

@@ -203,8 +203,8 @@ fn everything_unsupported_is_reported_at_once() {
 <integrator type="guided_path"/>
 {SENSOR}
 <texture type="mesh_attribute" id="checks"/>
-<bsdf type="principled" id="floor"/>
-<shape type="disk"/>
+<bsdf type="principledthin" id="floor"/>
+<shape type="shapegroup"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
 <medium type="homogeneous" id="fog"/>
 </scene>"#
@@ -215,15 +215,15 @@ fn everything_unsupported_is_reported_at_once() {
     for (line, phrase) in [
         (2, "integrator type \"guided_path\""),
         (6, "texture type \"mesh_attribute\" is not supported yet"),
-        (7, "bsdf type \"principled\" is not supported yet"),
-        (8, "shape type \"disk\""),
+        (7, "bsdf type \"principledthin\" is not supported yet"),
+        (8, "shape type \"shapegroup\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
     ] {
         assert!(e.contains(&format!("scene.xml:{line}: ")) && e.contains(phrase), "line {line}, {phrase:?}: {e}");
     }
     // What Mitsuba would do with each is said.
-    assert!(e.contains("Mitsuba renders the Disney principled BSDF"), "{e}");
+    assert!(e.contains("Mitsuba renders the thin Disney principled BSDF"), "{e}");
     // The command line's estimator replaces the integrator: five remain.
     let e = match Scene::load_with(&scene, &LoadOptions { replace_integrator: true, ..LoadOptions::default() }) {
         Ok(_) => panic!("loaded"),

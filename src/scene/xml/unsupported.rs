@@ -39,9 +39,7 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "principled", "the Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
-    ("bsdf", "phong", "the modified Phong reflectance model", LATER_MATERIALS),
     ("bsdf", "mixturebsdf", "a weighted mixture of BSDFs", LATER_MATERIALS),
     ("bsdf", "hair", "a hair fibre scattering model", OUT_OF_SCOPE),
     ("bsdf", "measured", "a measured (tabulated) BSDF", OUT_OF_SCOPE),
@@ -49,8 +47,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("bsdf", "polarizer", "a linear polarizer", OUT_OF_SCOPE),
     ("bsdf", "retarder", "a polarization retarder", OUT_OF_SCOPE),
     ("bsdf", "circular", "a circular polarizer", OUT_OF_SCOPE),
-    ("shape", "disk", "an analytic disk", LATER_SHAPES),
-    ("shape", "cylinder", "an analytic cylinder", LATER_SHAPES),
     ("shape", "shapegroup", "a group of shapes to instance", LATER_SHAPES),
     ("shape", "instance", "an instance of a shapegroup", LATER_SHAPES),
     ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),

@@ -26,7 +26,7 @@ use super::super::settings::defaults;
 fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
         "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
-        "center" | "position" => "point",
+        "center" | "position" | "p0" | "p1" => "point",
         "direction" => "vector",
         _ => return None,
     })
