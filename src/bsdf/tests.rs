@@ -292,6 +292,11 @@ fn chi2_pplastic() {
                     PdfIntegral::AtMostOne,
                 ));
             }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
 /// Mitsuba 0.6's `phong`, coloured, with 0.6's energy scale of 1.
 fn phong(exponent: f32, diffuse: Vec3, specular: Vec3) -> Bsdf {
     Bsdf::Phong(Phong::new(exponent, diffuse, specular, 1.0))
