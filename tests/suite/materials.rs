@@ -208,6 +208,8 @@ fn pplastic_pt_matches_mitsuba() {
 #[test]
 fn pplastic_mis_matches_mitsuba() {
     matches_mitsuba("pplastic", Estimator::Mis, 64);
+}
+
 #[test]
 fn principled_pt_matches_mitsuba() {
     // Rough metal with a textured roughness, a clearcoat, a glass-like spec_trans sphere, an anisotropic
