@@ -276,6 +276,7 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
         rr_depth: d.rr_depth,
         samples_per_pixel: d.samples_per_pixel,
         seed: d.seed,
+        hide_emitters: d.hide_emitters,
         caustics,
     })
 }

@@ -43,6 +43,7 @@ pub(crate) struct IntegratorDesc {
     pub rr_depth: u32,
     pub samples_per_pixel: u32,
     pub seed: u64,
+    pub hide_emitters: bool,
     pub caustics: Option<CausticsDesc>,
     /// `name:type,…` (`scene::aov`).
     pub aovs: Option<String>,
@@ -55,6 +56,7 @@ impl Default for IntegratorDesc {
             rr_depth: defaults::RR_DEPTH,
             samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
             seed: defaults::SEED,
+            hide_emitters: defaults::HIDE_EMITTERS,
             caustics: None,
             aovs: None,
         }

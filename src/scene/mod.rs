@@ -11,6 +11,7 @@
 //! rr_depth = 5
 //! samples_per_pixel = 16
 //! seed = 0
+//! hide_emitters = false        # true: camera rays see no emitter (Mitsuba's flag; `integrator::path`)
 //! [integrator.caustics]        # optional
 //! estimator = "mis"            # pt (default) | pm | mis
 //! photons = 200000             # optional

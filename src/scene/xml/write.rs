@@ -210,6 +210,10 @@ impl Writer {
                     self.line(&format!("<integer name=\"{k}\" value=\"{}\"/>", num(v).ok_or_else(|| format!("integrator.{k}"))?));
                 }
             }
+            if let Some(v) = t.get("hide_emitters") {
+                let hide = v.as_bool().ok_or_else(|| "integrator.hide_emitters".to_string())?;
+                self.line(&format!("<boolean name=\"hide_emitters\" value=\"{hide}\"/>"));
+            }
             if let Some(c) = t.get("caustics").and_then(Value::as_table) {
                 for (k, v) in c {
                     let line = match (k.as_str(), v) {
