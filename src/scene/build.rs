@@ -335,11 +335,11 @@ fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<(Projection, &'stati
     let not_for = |key: &str, given: bool, applies: bool| {
         if given && !applies {
             let name = match kind {
-                SensorType::Perspective => "perspective",
-                SensorType::Thinlens => "thinlens",
-                SensorType::Orthographic => "orthographic",
+                SensorType::Perspective => "a perspective",
+                SensorType::Thinlens => "a thinlens",
+                SensorType::Orthographic => "an orthographic",
             };
-            return Err(ctx.key_error(key, format!("a {name} sensor has no {}", key.trim_start_matches("sensor."))));
+            return Err(ctx.key_error(key, format!("{name} sensor has no {}", key.trim_start_matches("sensor."))));
         }
         Ok(())
     };
@@ -522,4 +522,43 @@ fn vertex_normals(mesh: &TriangleMesh) -> Vec<Vec3> {
         *n = n.normalize_or_zero();
     }
     normals
+}
+
+#[cfg(test)]
+mod sensor_tests {
+    use std::path::Path;
+
+    use crate::camera::{Projection, DEFAULT_FAR_CLIP, DEFAULT_NEAR_CLIP};
+    use crate::scene::Scene;
+
+    fn load(sensor: &str) -> Result<Scene, String> {
+        let text = format!("[sensor]\n{sensor}\nfilm = {{ width = 8, height = 6 }}\n\n[[shape]]\ntype = \"cube\"\n");
+        Scene::from_toml_str(&text, Path::new("."), Path::new("s.toml")).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn sensor_keys_defaults_and_errors() {
+        // Mitsuba's defaults: clip planes 0.01 and 10⁴, the focal plane at the far clip plane, 50 mm.
+        let s = load("type = \"thinlens\"\naperture_radius = 0.1").unwrap();
+        match s.camera.projection() {
+            Projection::ThinLens { aperture_radius, focus_distance, near_clip, far_clip, .. } => {
+                assert_eq!((aperture_radius, focus_distance, near_clip, far_clip), (0.1, DEFAULT_FAR_CLIP, DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP));
+            }
+            p => panic!("{p:?}"),
+        }
+        let s = load("type = \"orthographic\"\nnear_clip = 0.5\nfar_clip = 20").unwrap();
+        assert_eq!(s.camera.projection(), Projection::Orthographic { near_clip: 0.5, far_clip: 20.0 });
+        for (sensor, key, says) in [
+            ("type = \"thinlens\"", "sensor", "needs aperture_radius"),
+            ("type = \"thinlens\"\naperture_radius = -1", "sensor.aperture_radius", "≥ 0"),
+            ("type = \"thinlens\"\naperture_radius = 0.1\nfocus_distance = 0", "sensor.focus_distance", "> 0"),
+            ("type = \"thinlens\"\naperture_radius = 0.1\nto_world = { scale = 2 }", "sensor.to_world", "must not scale"),
+            ("type = \"orthographic\"\nfov = 40", "sensor.fov", "an orthographic sensor has no fov"),
+            ("type = \"orthographic\"\nnear_clip = 2\nfar_clip = 1", "sensor.far_clip", "greater than near_clip"),
+            ("aperture_radius = 0.1", "sensor.aperture_radius", "a perspective sensor has no aperture_radius"),
+        ] {
+            let e = load(sensor).err().unwrap_or_else(|| panic!("{sensor}: loads"));
+            assert!(e.contains(key) && e.contains(says), "{sensor}: {e}");
+        }
+    }
 }
