@@ -146,6 +146,20 @@ fn disk_and_cylinder_mis_match_mitsuba() {
     matches_mitsuba("shapes", Estimator::Mis, 64);
 }
 
+#[test]
+fn thinlens_pt_matches_mitsuba() {
+    // Depth of field: cubes before, on and behind the focal plane, a chequered floor across it; the lens
+    // sample is the sample's second 2-D dimension, as Mitsuba draws it.
+    matches_mitsuba("thinlens", Estimator::Pt, 512);
+}
+
+#[test]
+fn orthographic_pt_matches_mitsuba() {
+    // A scaled view 5 units wide; near_clip cuts a panel in front of the camera plane, far_clip the floor's
+    // far end.
+    matches_mitsuba("orthographic", Estimator::Pt, 512);
+}
+
 /// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
 /// reference to a texture that does not exist are errors at their keys.
 #[test]

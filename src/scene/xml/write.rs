@@ -234,7 +234,8 @@ impl Writer {
     }
 
     fn sensor(&mut self, t: &Table, integrator: Option<&Table>) -> Result<()> {
-        self.open("<sensor type=\"perspective\">");
+        let kind = t.get("type").and_then(Value::as_str).unwrap_or("perspective");
+        self.open(&format!("<sensor type=\"{}\">", esc(kind)));
         self.body("sensor", t, &["film"])?;
         self.open("<sampler type=\"independent\">");
         let get = |k: &str| integrator.and_then(|i| i.get(k)).and_then(num);
