@@ -93,14 +93,16 @@ impl Material {
         }
         bindings.sort_unstable();
         bindings.dedup_by_key(|b| b.slot);
-        // The facts, on the template with each textured parameter at the value that counts it (module doc).
-        let mut extreme = template.clone();
-        set_bound(&mut extreme, &bindings, |texture, param| {
-            let r = range(texture);
-            param.set(|| r.max, || r.mean_1);
-        });
-        let facts = Facts::of(&extreme);
+        let facts = textured_facts(&template, &bindings, range);
         Ok(Self { template, bindings: bindings.into_boxed_slice(), facts })
+    }
+
+    /// Decides the [`Facts`] again from `range`, the bound textures' summaries known better than when the
+    /// material was made (a `mesh_attribute`'s values, read with the shapes).
+    pub fn refine_facts(&mut self, range: impl Fn(u32) -> Textured) {
+        if self.is_textured() {
+            self.facts = textured_facts(&self.template, &self.bindings, range);
+        }
     }
 
     /// Whether some parameter is textured.
@@ -138,6 +140,17 @@ impl Material {
         set_bound(&mut bsdf, &self.bindings, eval);
         Cow::Owned(bsdf)
     }
+}
+
+/// The facts of `template` with `bindings`: decided with each textured parameter at the value that counts it
+/// (module documentation).
+fn textured_facts(template: &Bsdf, bindings: &[Binding], range: impl Fn(u32) -> Textured) -> Facts {
+    let mut extreme = template.clone();
+    set_bound(&mut extreme, bindings, |texture, param| {
+        let r = range(texture);
+        param.set(|| r.max, || r.mean_1);
+    });
+    Facts::of(&extreme)
 }
 
 /// Sets the parameters of `bsdf` that `bindings` name through `eval`, then lets every BSDF whose

@@ -16,6 +16,7 @@
 //! limit); the arrays are then reserved with `try_reserve`, so an allocation that fails is an error, never
 //! an abort.
 
+pub mod attribute;
 pub mod obj;
 pub mod ply;
 pub mod serialized;

@@ -10,7 +10,9 @@
 //! property list uchar int vertex_indices (or vertex_index; any integer types)
 //! ```
 //! Polygons are triangulated as fans `(v0, v_i, v_{i+1})`, which keeps their winding. Other elements
-//! (edges, materials, ...) and other properties are skipped. Out-of-range or negative indices and faces
+//! (edges, materials, ...) are skipped; other properties of `vertex` and `face` are the mesh's attributes
+//! (colours, weights: named and converted as Mitsuba does, `super::attribute`), read only by
+//! [`load_ply_with_attributes`] and only those asked for (a face attribute once per triangle of its polygon). Out-of-range or negative indices and faces
 //! with fewer than three vertices are errors that name the file and the face.
 //!
 //! [`write_ply`] writes the same subset (binary little endian: positions, normals and uvs if present,
@@ -32,6 +34,7 @@ use flate2::bufread::GzDecoder;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{ElementDef, Encoding, PropertyAccess, PropertyType, ScalarType};
 
+use super::attribute::{attribute_value, group_fields, AttributeFields, Attributes, MeshAttribute};
 use super::{reserved, TriangleMesh, MAX_INFLATE_RATIO};
 use crate::error::MeshError;
 use crate::math::{Vec2, Vec3};
@@ -43,21 +46,40 @@ pub const MAX_ASCII_LINE: u64 = 1 << 20;
 
 /// Reads a PLY file (ASCII or binary).
 pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshError> {
-    let (file, len) = super::open_regular(path)?;
-    read_ply_within(BufReader::new(file), path, DataBound { bytes: len, inflated: false })
+    load(path, false, &|_| false).map(|(mesh, _)| mesh)
 }
 
 /// Reads a gzip-compressed PLY file (`.ply.gz`).
 pub fn load_ply_gz(path: &Path) -> Result<TriangleMesh, MeshError> {
+    load(path, true, &|_| false).map(|(mesh, _)| mesh)
+}
+
+/// Reads a PLY file, gzip-compressed if its name ends with `.gz` (any case), with the attributes whose
+/// names `keep` accepts.
+pub fn load_ply_with_attributes(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), MeshError> {
+    load(path, path.to_string_lossy().to_ascii_lowercase().ends_with(".gz"), keep)
+}
+
+/// Reads a PLY file, gzip-compressed if `gz`, with the attributes `keep` accepts.
+fn load(path: &Path, gz: bool, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), MeshError> {
     let (file, len) = super::open_regular(path)?;
-    let bound = DataBound { bytes: len.saturating_mul(MAX_INFLATE_RATIO), inflated: true };
-    read_ply_within(BufReader::new(GzDecoder::new(BufReader::new(file.take(len)))), path, bound)
+    if gz {
+        let bound = DataBound { bytes: len.saturating_mul(MAX_INFLATE_RATIO), inflated: true };
+        read_ply_within(BufReader::new(GzDecoder::new(BufReader::new(file.take(len)))), path, bound, keep)
+    } else {
+        read_ply_within(BufReader::new(file), path, DataBound { bytes: len, inflated: false }, keep)
+    }
 }
 
 /// Reads PLY data from `reader`; `path` only names the source in errors. Nothing bounds the data but the
 /// header's counts and the memory left (for files: [`load_ply`]).
 pub fn read_ply<R: BufRead>(reader: R, path: &Path) -> Result<TriangleMesh, MeshError> {
-    read_ply_within(reader, path, DataBound { bytes: u64::MAX, inflated: false })
+    read_ply_within(reader, path, DataBound { bytes: u64::MAX, inflated: false }, &|_| false).map(|(mesh, _)| mesh)
+}
+
+/// [`read_ply`] with the attributes `keep` accepts.
+pub fn read_ply_with_attributes<R: BufRead>(reader: R, path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), MeshError> {
+    read_ply_within(reader, path, DataBound { bytes: u64::MAX, inflated: false }, keep)
 }
 
 /// The most bytes (header included) a source can deliver: a file's size, or what a compressed file can
@@ -69,7 +91,7 @@ struct DataBound {
 }
 
 /// Reads PLY data of at most `bound` bytes from `reader`.
-fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> Result<TriangleMesh, MeshError> {
+fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), MeshError> {
     // ply-rs-bw's messages span several lines ("...\n\tString: '...'\n\tError: ..."): keep them on one.
     let parse_error = |message: String| MeshError::Parse {
         path: path.to_path_buf(),
@@ -148,7 +170,48 @@ fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> 
             }
         )));
     }
-    crate::render::memory::check_mesh(vertex_count, face_count, has_normals, uv_names.is_some(), 0).map_err(parse_error)?;
+    // The attributes (module `attribute`): all named, those asked for kept.
+    let scalar_names = |e: &ElementDef| -> Vec<String> {
+        e.properties.values().map(|p| if matches!(p.data_type, PropertyType::Scalar(_)) { p.name.clone() } else { String::new() }).collect()
+    };
+    let vertex_names = scalar_names(vertex_def);
+    let face_names = scalar_names(face_def);
+    let mut vertex_reserved = vec!["x", "y", "z", "nx", "ny", "nz", "u", "v", ""];
+    if let Some([u, v]) = uv_names {
+        vertex_reserved.extend([*u, *v]);
+    }
+    let group = |kind, names: &[String], reserved: &[&str]| group_fields(kind, &names.iter().map(String::as_str).collect::<Vec<_>>(), reserved);
+    let vertex_groups = group("vertex_", &vertex_names, &vertex_reserved);
+    let face_groups = group("face_", &face_names, &[""]);
+    let mut attributes = Attributes { names: vertex_groups.iter().chain(&face_groups).map(|a| a.name.clone()).collect(), kept: Vec::new() };
+    let vertex_groups: Vec<AttributeFields> = vertex_groups.into_iter().filter(|a| keep(&a.name)).collect();
+    let face_groups: Vec<AttributeFields> = face_groups.into_iter().filter(|a| keep(&a.name)).collect();
+    let attribute_bytes = |groups: &[AttributeFields], n: u64| groups.iter().map(|a| a.fields.len() as u64 * 4).sum::<u64>().saturating_mul(n);
+    let extra = attribute_bytes(&vertex_groups, vertex_count).saturating_add(attribute_bytes(&face_groups, face_count));
+    crate::render::memory::check_mesh(vertex_count, face_count, has_normals, uv_names.is_some(), extra).map_err(parse_error)?;
+    // Where each property's value goes: (attribute, component), by the property's position in its element.
+    let targets = |groups: &[AttributeFields], n: usize| {
+        let mut t = vec![None; n];
+        for (k, a) in groups.iter().enumerate() {
+            for (c, &f) in a.fields.iter().enumerate() {
+                t[f] = Some((k, c));
+            }
+        }
+        t
+    };
+    let vertex_targets = targets(&vertex_groups, vertex_names.len());
+    let face_targets = targets(&face_groups, face_names.len());
+    let new_values = |groups: &[AttributeFields], n: u64| -> Result<Vec<MeshAttribute>, MeshError> {
+        groups
+            .iter()
+            .map(|a| {
+                let values = reserved(n.saturating_mul(a.fields.len() as u64), "attribute values").map_err(parse_error)?;
+                Ok(MeshAttribute { name: a.name.clone(), dim: a.fields.len() as u8, values })
+            })
+            .collect()
+    };
+    let mut vertex_values = new_values(&vertex_groups, vertex_count)?;
+    let mut face_values = new_values(&face_groups, face_count)?;
 
     let mut mesh = TriangleMesh {
         positions: reserved(vertex_count, "vertex positions").map_err(parse_error)?,
@@ -176,16 +239,24 @@ fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> 
                     }
                 };
                 let slots: Vec<Option<usize>> = element.properties.values().map(|p| slot(&p.name)).collect();
+                let mut a = vec![0f32; 4 * vertex_groups.len()];
                 for i in 0..element.count {
                     data.begin_element().map_err(|m| context(i, m))?;
                     let mut v = [0f32; 8];
-                    for (p, &slot) in element.properties.values().zip(&slots) {
-                        match (p.data_type.clone(), slot) {
-                            (PropertyType::Scalar(t), Some(k)) => v[k] = data.scalar(&t).map_err(|m| context(i, m))?.to_f32(),
-                            (t, _) => data.skip(&t).map_err(|m| context(i, m))?,
+                    for (j, (p, &slot)) in element.properties.values().zip(&slots).enumerate() {
+                        match (&p.data_type, slot, vertex_targets[j]) {
+                            (PropertyType::Scalar(t), Some(k), _) => v[k] = data.scalar(t).map_err(|m| context(i, m))?.to_f32(),
+                            (PropertyType::Scalar(t), None, Some((k, c))) => {
+                                let value = data.scalar(t).map_err(|m| context(i, m))?.to_f64();
+                                a[k * 4 + c] = attribute_value(value, t);
+                            }
+                            (t, _, _) => data.skip(t).map_err(|m| context(i, m))?,
                         }
                     }
                     data.end_element().map_err(|m| context(i, m))?;
+                    for (k, attribute) in vertex_values.iter_mut().enumerate() {
+                        attribute.values.extend_from_slice(&a[k * 4..k * 4 + usize::from(attribute.dim)]);
+                    }
                     mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
                     if let Some(n) = &mut mesh.normals {
                         n.push(Vec3::new(v[3], v[4], v[5]));
@@ -197,10 +268,16 @@ fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> 
             }
             "face" => {
                 let mut corners: Vec<u32> = Vec::new();
+                let mut a = vec![0f32; 4 * face_groups.len()];
                 for face in 0..element.count {
                     data.begin_element().map_err(|m| context(face, m))?;
-                    for p in element.properties.values() {
+                    let first_triangle = mesh.indices.len();
+                    for (j, p) in element.properties.values().enumerate() {
                         match &p.data_type {
+                            PropertyType::Scalar(t) if face_targets[j].is_some() => {
+                                let (k, c) = face_targets[j].expect("matched");
+                                a[k * 4 + c] = attribute_value(data.scalar(t).map_err(|m| context(face, m))?.to_f64(), t);
+                            }
                             PropertyType::List(count_type, item_type) if p.name == index_list => {
                                 corners.clear();
                                 let n = data.list_len(count_type, item_type).map_err(|m| context(face, m))?;
@@ -228,6 +305,17 @@ fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> 
                         }
                     }
                     data.end_element().map_err(|m| context(face, m))?;
+                    // One value per triangle of the polygon (its fan).
+                    let triangles = mesh.indices.len() - first_triangle;
+                    for (k, attribute) in face_values.iter_mut().enumerate() {
+                        let value = &a[k * 4..k * 4 + usize::from(attribute.dim)];
+                        if triangles > 1 {
+                            attribute.values.try_reserve(value.len() * (triangles - 1)).map_err(|_| context(face, "cannot allocate its attribute values: out of memory".into()))?;
+                        }
+                        for _ in 0..triangles {
+                            attribute.values.extend_from_slice(value);
+                        }
+                    }
                 }
             }
             _ => {
@@ -241,7 +329,8 @@ fn read_ply_within<R: BufRead>(mut reader: R, path: &Path, bound: DataBound) -> 
             }
         }
     }
-    Ok(mesh)
+    attributes.kept = vertex_values.into_iter().chain(face_values).collect();
+    Ok((mesh, attributes))
 }
 
 /// The fewest bytes one element of `e` takes: binary, each scalar's size and each list's length field; ASCII,
@@ -281,6 +370,15 @@ impl Value {
             Value::Int(i) => i as f32,
             Value::F32(f) => f,
             Value::F64(f) => f as f32,
+        }
+    }
+
+    /// As f64 (exact for every integer type and float).
+    fn to_f64(self) -> f64 {
+        match self {
+            Value::Int(i) => i as f64,
+            Value::F32(f) => f64::from(f),
+            Value::F64(f) => f,
         }
     }
 
@@ -529,7 +627,7 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
         assert_eq!(read(text.as_bytes()).unwrap().indices.len(), 3);
         // The same within a file's bound: the data ends where the last line does.
         let bound = DataBound { bytes: text.len() as u64, inflated: false };
-        assert_eq!(read_ply_within(Cursor::new(text.as_bytes()), Path::new("t.ply"), bound).unwrap().indices.len(), 3);
+        assert_eq!(read_ply_within(Cursor::new(text.as_bytes()), Path::new("t.ply"), bound, &|_| false).unwrap().0.indices.len(), 3);
     }
 
     #[test]
@@ -579,5 +677,52 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
             let err = read(bytes).expect_err(&format!("case {i}"));
             assert!(err.to_string().starts_with("t.ply: "), "case {i}: {err}");
         }
+    }
+
+    const COLOURED: &str = "ply\nformat ascii 1.0\nelement vertex 4\n\
+property float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+property ushort q_0\nproperty float w_x\nproperty float w_y\n\
+element face 2\nproperty list uchar int vertex_indices\nproperty float color_0\nproperty float color_1\nproperty float color_2\n\
+property float weight_0\nend_header\n\
+0 0 0 255 0 128 65535 1 2\n1 0 0 0 255 0 0 1 2\n1 1 0 0 0 255 32768 1 2\n0 1 0 1 2 3 5000 1 2\n\
+4 0 1 2 3 0.5 0.25 1.5 0.75\n3 0 1 2 1 2 3 -1\n";
+
+    #[test]
+    fn vertex_colours_and_face_attributes_are_read_as_mitsuba_reads_them() {
+        let (mesh, a) = read_ply_with_attributes(Cursor::new(COLOURED.as_bytes()), Path::new("t.ply"), &|_| true).unwrap();
+        assert_eq!(mesh.indices, vec![[0, 1, 2], [0, 2, 3], [0, 1, 2]]);
+        // Every attribute is named; `w_x, w_y` (two fields) is not one.
+        assert_eq!(a.names, ["vertex_color", "vertex_q", "face_color", "face_weight"]);
+        let colour = a.get("vertex_color").unwrap();
+        // 8-bit values stay as they are (Mitsuba 3.9.1), in r, g, b order.
+        assert_eq!((colour.dim, &colour.values[..6]), (3, &[255.0, 0.0, 128.0, 0.0, 255.0, 0.0][..]));
+        let q = a.get("vertex_q").unwrap();
+        // 16-bit values scaled to [0, 1] and decoded from sRGB.
+        assert_eq!((q.dim, q.values[0], q.values[1]), (1, 1.0, 0.0));
+        assert!((q.values[2] / 0.214_048_09 - 1.0).abs() < 5e-6 && (q.values[3] / 0.006_729_608 - 1.0).abs() < 5e-6);
+        // A face's value once per triangle of its polygon.
+        let face = a.get("face_color").unwrap();
+        assert_eq!(face.values, [0.5, 0.25, 1.5, 0.5, 0.25, 1.5, 1.0, 2.0, 3.0]);
+        assert_eq!(a.get("face_weight").unwrap().values, [0.75, 0.75, -1.0]);
+        // Only what is asked for is kept; every name is still listed.
+        let (_, some) = read_ply_with_attributes(Cursor::new(COLOURED.as_bytes()), Path::new("t.ply"), &|n| n == "face_weight").unwrap();
+        assert_eq!((some.names.len(), some.kept.len(), some.kept[0].name.as_str()), (4, 1, "face_weight"));
+        assert_eq!(read(COLOURED.as_bytes()).unwrap().indices, mesh.indices);
+    }
+
+    #[test]
+    fn binary_vertex_colours_read_like_ascii() {
+        let header = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+property uchar r\nproperty uchar g\nproperty uchar b\nproperty uchar a\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        let mut bytes = header.as_bytes().to_vec();
+        for (p, c) in [([0f32, 0.0, 0.0], [10u8, 20, 30, 40]), ([1.0, 0.0, 0.0], [1, 2, 3, 4]), ([0.0, 1.0, 0.0], [5, 6, 7, 8])] {
+            p.iter().for_each(|x| bytes.extend_from_slice(&x.to_le_bytes()));
+            bytes.extend_from_slice(&c);
+        }
+        bytes.push(3);
+        [0i32, 1, 2].iter().for_each(|i| bytes.extend_from_slice(&i.to_le_bytes()));
+        let (_, a) = read_ply_with_attributes(Cursor::new(bytes), Path::new("t.ply"), &|_| true).unwrap();
+        let c = a.get("vertex_color").unwrap();
+        assert_eq!((c.dim, c.values.len(), c.values[4]), (4, 12, 1.0));
     }
 }

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use super::desc::{PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
+use super::attributes::SceneAttributes;
 use super::material::Materials;
 use super::textures::Textures;
 use super::plugins::{self, Role};
@@ -29,6 +30,7 @@ use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::emitter::{self, Emitter};
+use crate::mesh::attribute::Attributes;
 use crate::mesh::TriangleMesh;
 use crate::shape::{self, LoadError, Shape, ShapeModel};
 use crate::texture::{Texture, BARYCENTRIC_UVS};
@@ -117,7 +119,8 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     for (i, emitter) in file.emitter.iter().enumerate() {
         emitter_plans.push(plan_emitter(ctx, &join_index("emitter", i), emitter, base_dir)?);
     }
-    let (materials, textures) = materials.finish(ctx)?;
+    let (mut materials, mut textures) = materials.finish(ctx)?;
+    let mut attributes = SceneAttributes::new(&materials, &mut textures);
 
     // Phase 2: every referenced file exists.
     let files = shape_plans
@@ -148,7 +151,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
     for plan in &shape_plans {
-        let mut placed = load_and_place(ctx, plan, base_dir)?;
+        let (mut placed, shape_attributes) = load_and_place(ctx, plan, base_dir, &|name| attributes.reads(plan.material, name))?;
         let base = mesh.triangle_count();
         shape_first_triangle.push(base as u32);
         let n = placed.triangle_count();
@@ -158,6 +161,11 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         let has_uv = placed.uvs.is_some();
         tri_has_uv.extend(std::iter::repeat_n(has_uv, n));
         placed.uvs.get_or_insert_with(|| vec![Vec2::ZERO; placed.positions.len()]);
+        let what = match plan.shape.filename() {
+            Some(f) => format!("the {} shape {}", plan.shape.type_name(), crate::props::shown(f)),
+            None => format!("the {} shape", plan.shape.type_name()),
+        };
+        attributes.add_shape(ctx, &plan.key, &what, plan.material, base as u32, mesh.positions.len() as u32, n as u32, &shape_attributes)?;
         mesh.append(&placed);
         tri_material.extend(std::iter::repeat_n(plan.material, n));
         tri_flat.extend(std::iter::repeat_n(plan.shape.flat(), n));
@@ -214,6 +222,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         _ => camera(ctx, &default_sensor(bounds))?,
     };
     let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
+    let attributes = attributes.finish(&mut materials, &textures);
     Ok(Scene {
         path: name.to_path_buf(),
         shading: super::shading::shading_records(&mesh, &tri_material, &tri_flat),
@@ -222,6 +231,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         tri_flat,
         materials,
         textures,
+        attributes,
         tri_has_uv,
         shape_first_triangle,
         lights,
@@ -430,6 +440,9 @@ fn area_emitter(ctx: &ErrorContext, key: &str, table: &toml::Table, materials: &
     let mut texture = None;
     let built = plugins::build_textured(ctx, key, Role::Emitter, emitter::PLUGINS, &d, |_, _| Ok(Mat4::IDENTITY), |at, _, v| {
         let t = materials.texture(ctx, at, v)?;
+        if let Texture::MeshAttribute(a) = &t {
+            return Err(ctx.key_error(at, format!("caustica does not take a `mesh_attribute` texture (`{}`) as an emitter's radiance", a.name)));
+        }
         let summary = t.summary();
         texture = Some(t);
         Ok(summary)
@@ -462,8 +475,8 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path) 
 }
 
 /// The shape's triangles in world space, with per-vertex normals.
-fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan, base_dir: &Path) -> Result<TriangleMesh, SceneError> {
-    let mut mesh = plan.shape.triangles(base_dir).map_err(|e| match e {
+fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan, base_dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), SceneError> {
+    let (mut mesh, attributes) = plan.shape.triangles_with_attributes(base_dir, keep).map_err(|e| match e {
         LoadError::File(m) => {
             let path = base_dir.join(plan.shape.filename().unwrap_or_default());
             ctx.asset_error(&join_key(&plan.key, "filename"), &path, m)
@@ -499,7 +512,7 @@ fn load_and_place(ctx: &ErrorContext, plan: &ShapePlan, base_dir: &Path) -> Resu
         None => vertex_normals(&mesh),
     };
     mesh.normals = Some(normals);
-    Ok(mesh)
+    Ok((mesh, attributes))
 }
 
 /// Angle-weighted vertex normals (Thürmer & Wüthrich 1998), as Mitsuba computes them for meshes without

@@ -7,6 +7,7 @@ use std::borrow::Cow;
 use super::Scene;
 use crate::bsdf::{Bsdf, HitFrame, ParamMut};
 use crate::accel::Hit;
+use crate::texture::{MeshPoint, TexEval};
 use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
 /// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
@@ -97,16 +98,19 @@ impl Scene {
             return Cow::Borrowed(material.template());
         }
         let uv = self.tex_uv(si);
+        // The point on the mesh, for the mesh attributes (only in a scene that has them).
+        let mesh = (!self.attributes.is_empty()).then(|| MeshPoint { tables: &self.attributes, indices: &self.mesh.indices, prim: si.prim, bary: si.uv });
+        let at = TexEval { uv, mesh };
         // The hit's geometry, made only for a parameter that reads it (a normal or height map), once.
         let mut hit = None;
         material.bsdf_at(|texture, param| {
             let t = &self.textures[texture as usize];
             match param {
-                ParamMut::Frame(at, rule) => {
+                ParamMut::Frame(frame, rule) => {
                     let hit = hit.get_or_insert_with(|| self.hit_frame(si));
-                    *at = rule.perturbation(|| t.eval_rgb(uv), || t.eval_1_grad(uv), hit);
+                    *frame = rule.perturbation(|| t.eval_rgb(at), || t.eval_1_grad(uv), hit);
                 }
-                param => param.set(|| t.eval_rgb(uv), || t.eval_1(uv)),
+                param => param.set(|| t.eval_rgb(at), || t.eval_1(at)),
             }
         })
     }

@@ -106,6 +106,7 @@
 //! cannot hold it there; the error states the limit).
 
 pub mod aov;
+mod attributes;
 mod build;
 mod clip;
 mod convert;
@@ -137,7 +138,7 @@ pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
 use crate::material::Material;
-use crate::texture::Texture;
+use crate::texture::{AttributeTable, Texture};
 pub use crate::camera::Camera;
 use crate::light::LightSet;
 use crate::math::Aabb;
@@ -165,6 +166,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The textures the materials use (`Material::bindings` index them).
     pub textures: Vec<Texture>,
+    /// The mesh attributes the `mesh_attribute` textures read, one table per attribute name, holding only
+    /// the shapes whose material reads it (module `attributes`; empty in a scene without them).
+    pub attributes: Vec<AttributeTable>,
     /// Per triangle: whether its shape has texture coordinates (in `mesh.uvs`, per vertex, zeros for the
     /// shapes without); where it has none, a hit's are its barycentrics, as in Mitsuba ([`Scene::tex_uv`]).
     pub tri_has_uv: Vec<bool>,

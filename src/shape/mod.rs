@@ -30,6 +30,7 @@ mod sphere;
 
 use std::path::Path;
 
+use crate::mesh::attribute::Attributes;
 use crate::mesh::TriangleMesh;
 use crate::props::{PropError, Props};
 
@@ -57,6 +58,10 @@ pub(crate) trait ShapeModel {
     fn flat(&self) -> bool;
     /// The triangles in object space; files are found relative to `base_dir`.
     fn triangles(&self, base_dir: &Path) -> Result<TriangleMesh, LoadError>;
+    /// The triangles and the mesh attributes `keep` accepts (`mesh::attribute`; only PLY files have any).
+    fn triangles_with_attributes(&self, base_dir: &Path, _keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), LoadError> {
+        Ok((self.triangles(base_dir)?, Attributes::default()))
+    }
 }
 
 /// The closed enum of shape types, its dispatch and the list of their [`Plugin`]s, from one list.
@@ -88,6 +93,9 @@ macro_rules! shape_types {
             }
             fn triangles(&self, base_dir: &Path) -> Result<TriangleMesh, LoadError> {
                 match self { $(Shape::$variant(s) => s.triangles(base_dir),)* }
+            }
+            fn triangles_with_attributes(&self, base_dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), LoadError> {
+                match self { $(Shape::$variant(s) => s.triangles_with_attributes(base_dir, keep),)* }
             }
         }
     };

@@ -7,10 +7,14 @@
 //! face_normals = false            # true: shade with the triangles' own normals (default false)
 //! flip_tex_coords = true          # v ↦ 1 − v on the file's uvs (Mitsuba's default)
 //! ```
+//!
+//! Its other vertex and face properties are the mesh's attributes (`vertex_color`, `face_weight`, …), read
+//! by a `mesh_attribute` texture of its material (`mesh::attribute`).
 
 use std::path::Path;
 
-use super::{check_extension, flip_tex_coords, load_file, required_filename, LoadError, Plugin, Shape, ShapeModel};
+use super::{check_extension, check_mesh, flip_tex_coords, required_filename, LoadError, Plugin, Shape, ShapeModel};
+use crate::mesh::attribute::Attributes;
 use crate::mesh::TriangleMesh;
 use crate::props::{PropError, Props};
 
@@ -46,8 +50,21 @@ impl ShapeModel for Ply {
         self.face_normals
     }
     fn triangles(&self, base_dir: &Path) -> Result<TriangleMesh, LoadError> {
-        let mut mesh = load_file(base_dir, &self.filename)?;
+        self.triangles_with_attributes(base_dir, &|_| false).map(|(mesh, _)| mesh)
+    }
+    fn triangles_with_attributes(&self, base_dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), LoadError> {
+        let path = base_dir.join(&self.filename);
+        let (mut mesh, attributes) = crate::mesh::ply::load_ply_with_attributes(&path, keep)
+            .and_then(|(mesh, a)| mesh.validate(&path).map(|()| (mesh, a)))
+            .map_err(|e| LoadError::File(e.to_string()))?;
+        check_mesh(&mesh).map_err(LoadError::File)?;
+        for a in &attributes.kept {
+            if let Some(i) = a.values.iter().position(|v| !v.is_finite()) {
+                let element = if a.name.starts_with("face_") { "triangle" } else { "vertex" };
+                return Err(LoadError::File(format!("{}: attribute `{}` is not finite at {element} {}", path.display(), a.name, i / usize::from(a.dim))));
+            }
+        }
         flip_tex_coords(&mut mesh, self.flip_tex_coords);
-        Ok(mesh)
+        Ok((mesh, attributes))
     }
 }

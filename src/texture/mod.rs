@@ -1,5 +1,6 @@
 //! Textures: Mitsuba 3.9.1's `bitmap` (src/textures/bitmap.cpp over include/mitsuba/core/bitmap.h and
-//! Dr.Jit's `Texture`), `checkerboard` (src/textures/checkerboard.cpp) and the constant values Mitsuba
+//! Dr.Jit's `Texture`), `checkerboard` (src/textures/checkerboard.cpp), `mesh_attribute`
+//! (src/textures/mesh_attribute.cpp: read at a [`TexEval`]'s [`MeshPoint`]) and the constant values Mitsuba
 //! makes of an `<rgb>`/`<float>` (`srgb`/`uniform`, src/spectra/srgb.cpp), as its RGB variants evaluate
 //! them at a texture coordinate. The material layer binds them to BSDF and emitter parameters; this
 //! module knows no scene, BSDF or file format of scenes.
@@ -12,6 +13,8 @@
 //! # a checkerboard (defaults: color0 0.4, color1 0.2)
 //! reflectance = { type = "checkerboard", color0 = [0.1, 0.1, 0.1], color1 = 0.5 }
 //! # both take `to_uv`, a 2-D affine transform of the texture coordinates (read by the scene layer)
+//! # a mesh's per-vertex or per-face attribute (`mesh_attribute`; scale default 1)
+//! reflectance = { type = "mesh_attribute", name = "vertex_color", scale = 1.0 }
 //! ```
 //!
 //! Texture coordinates as Mitsuba's: `(0, 0)` is the top-left corner of the image as stored in the file
@@ -30,6 +33,7 @@ mod bitmap;
 mod cache;
 mod checkerboard;
 mod decode;
+mod mesh_attribute;
 mod texels;
 #[cfg(test)]
 mod tests;
@@ -40,6 +44,7 @@ pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use cache::ImageCache;
 pub use checkerboard::Checkerboard;
 pub use decode::FileFormat;
+pub use mesh_attribute::{AttributeTable, MeshAttribute, MeshPoint};
 pub use texels::{srgb_to_linear, StorageFormat, TextureImage};
 
 use crate::math::{Mat3, Vec2, Vec3};
@@ -74,13 +79,29 @@ fn channel_mean(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-/// A texture, loaded: what a parameter reads at a texture coordinate.
+/// Where a texture is evaluated: the texture coordinates and, at a hit on a mesh, the point on the mesh
+/// (what `mesh_attribute` reads; `None` elsewhere, e.g. on an emitter). A bare `Vec2` converts into one.
+#[derive(Clone, Copy, Debug)]
+pub struct TexEval<'a> {
+    pub uv: Vec2,
+    pub mesh: Option<MeshPoint<'a>>,
+}
+
+impl From<Vec2> for TexEval<'static> {
+    #[inline]
+    fn from(uv: Vec2) -> Self {
+        Self { uv, mesh: None }
+    }
+}
+
+/// A texture, loaded: what a parameter reads at a texture coordinate (or a point on a mesh).
 #[derive(Clone, Debug)]
 pub enum Texture {
     /// A constant colour (Mitsuba's `srgb` texture made of an `<rgb>`, or `uniform` of a `<float>`).
     Constant(Vec3),
     Bitmap(Bitmap),
     Checkerboard(Checkerboard),
+    MeshAttribute(MeshAttribute),
 }
 
 impl Texture {
@@ -88,11 +109,13 @@ impl Texture {
     /// all three channels).
     #[inline]
     #[must_use]
-    pub fn eval_rgb(&self, uv: Vec2) -> Vec3 {
+    pub fn eval_rgb<'a>(&self, at: impl Into<TexEval<'a>>) -> Vec3 {
+        let at = at.into();
         match self {
             Texture::Constant(c) => *c,
-            Texture::Bitmap(b) => b.eval_rgb(uv),
-            Texture::Checkerboard(c) => c.eval_rgb(uv),
+            Texture::Bitmap(b) => b.eval_rgb(at.uv),
+            Texture::Checkerboard(c) => c.eval_rgb(at.uv),
+            Texture::MeshAttribute(a) => a.eval_rgb(at.mesh.as_ref()),
         }
     }
 
@@ -101,24 +124,27 @@ impl Texture {
     /// the colours the other way round than `eval` (see [`Checkerboard::eval_1`]).
     #[inline]
     #[must_use]
-    pub fn eval_1(&self, uv: Vec2) -> f32 {
+    pub fn eval_1<'a>(&self, at: impl Into<TexEval<'a>>) -> f32 {
+        let at = at.into();
         match self {
             Texture::Constant(c) => channel_mean(*c),
-            Texture::Bitmap(b) => b.eval_1(uv),
-            Texture::Checkerboard(c) => c.eval_1(uv),
+            Texture::Bitmap(b) => b.eval_1(at.uv),
+            Texture::Checkerboard(c) => c.eval_1(at.uv),
+            Texture::MeshAttribute(a) => a.eval_1(at.mesh.as_ref()),
         }
     }
 
     /// The gradient of [`Texture::eval_1`] with respect to `(u, v)` (Mitsuba's `eval_1_grad`, which
     /// `bumpmap` reads): a bitmap's ([`Bitmap::eval_1_grad`]); zero for a constant and a checkerboard, whose
     /// value is flat wherever it is differentiable (Mitsuba has no `eval_1_grad` for them and refuses them
-    /// under a `bumpmap`; here they leave its normals unperturbed).
+    /// under a `bumpmap`; here they leave its normals unperturbed); zero for a mesh attribute too (no
+    /// gradient in `(u, v)`; Mitsuba refuses it there as well).
     #[inline]
     #[must_use]
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
         match self {
             Texture::Bitmap(b) => b.eval_1_grad(uv),
-            Texture::Constant(_) | Texture::Checkerboard(_) => Vec2::ZERO,
+            Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => Vec2::ZERO,
         }
     }
 
@@ -131,11 +157,13 @@ impl Texture {
             Texture::Constant(c) => channel_mean(*c),
             Texture::Bitmap(b) => b.image().mean(),
             Texture::Checkerboard(c) => 0.5 * (channel_mean(c.color0) + channel_mean(c.color1)),
+            Texture::MeshAttribute(a) => a.summary_before_load().mean_1,
         }
     }
 
     /// What a plugin's constructor and the material layer see of the texture before any hit
-    /// (`props::Textured`): its per-channel mean, its mean number and its per-channel maximum.
+    /// (`props::Textured`): its per-channel mean, its mean number and its per-channel maximum (a mesh
+    /// attribute's before the meshes are read: [`MeshAttribute::summary_before_load`]).
     #[must_use]
     pub fn summary(&self) -> Textured {
         Textured { mean: self.mean_rgb(), mean_1: self.mean(), max: self.max(), min: self.min() }
@@ -149,6 +177,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(b) => b.image().mean_rgb(),
             Texture::Checkerboard(c) => 0.5 * (c.color0 + c.color1),
+            Texture::MeshAttribute(a) => a.summary_before_load().mean,
         }
     }
 
@@ -160,6 +189,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(b) => b.image().max(),
             Texture::Checkerboard(c) => c.color0.max(c.color1),
+            Texture::MeshAttribute(a) => a.summary_before_load().max,
         }
     }
 
@@ -170,6 +200,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(b) => b.image().min(),
             Texture::Checkerboard(c) => c.color0.min(c.color1),
+            Texture::MeshAttribute(a) => a.summary_before_load().min,
         }
     }
 
@@ -181,11 +212,11 @@ impl Texture {
 
     /// The same texture with `to_uv` (a 2-D affine transform as a 3×3 matrix: `uv' = M·(u, v, 1)`, its
     /// last row ignored as Mitsuba's `ScalarAffineTransform3f`) applied to the coordinates before the
-    /// lookup. A constant ignores it.
+    /// lookup. A constant and a mesh attribute ignore it.
     #[must_use]
     pub fn with_to_uv(self, to_uv: Mat3) -> Self {
         match self {
-            Texture::Constant(c) => Texture::Constant(c),
+            Texture::Constant(_) | Texture::MeshAttribute(_) => self,
             Texture::Bitmap(b) => Texture::Bitmap(b.with_to_uv(to_uv)),
             Texture::Checkerboard(c) => Texture::Checkerboard(Checkerboard { to_uv, ..c }),
         }
@@ -197,7 +228,7 @@ impl Texture {
     pub fn memory_bytes(&self) -> u64 {
         match self {
             Texture::Bitmap(b) => b.image().memory_bytes(),
-            Texture::Constant(_) | Texture::Checkerboard(_) => 0,
+            Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => 0,
         }
     }
 }
@@ -220,6 +251,8 @@ pub enum TextureSpec {
     Constant(Vec3),
     Bitmap(BitmapSpec),
     Checkerboard { color0: Vec3, color1: Vec3 },
+    /// `mesh_attribute`: the attribute's name and scale.
+    MeshAttribute { name: String, scale: f32 },
 }
 
 impl TextureSpec {
@@ -231,6 +264,8 @@ impl TextureSpec {
             TextureSpec::Checkerboard { color0, color1 } => {
                 Texture::Checkerboard(Checkerboard { color0: *color0, color1: *color1, to_uv: Mat3::IDENTITY })
             }
+            // (The scene layer sets `table`.)
+            TextureSpec::MeshAttribute { name, scale } => Texture::MeshAttribute(MeshAttribute { name: name.clone(), scale: *scale, table: 0 }),
             TextureSpec::Bitmap(spec) => {
                 let path = base_dir.join(&spec.filename);
                 let image = cache.load(&path, spec.raw, spec.format)?;
@@ -261,7 +296,7 @@ pub enum TextureError {
 
 /// The texture types the scene files name (Mitsuba's plugin names), with their keys and constructors.
 #[cfg_attr(not(test), allow(dead_code))] // read by the scene layer's texture descriptions (to be wired)
-pub(crate) const PLUGINS: &[&Plugin<TextureSpec>] = &[&bitmap::PLUGIN, &checkerboard::PLUGIN];
+pub(crate) const PLUGINS: &[&Plugin<TextureSpec>] = &[&bitmap::PLUGIN, &checkerboard::PLUGIN, &mesh_attribute::PLUGIN];
 
 /// The texture plugin named `name`.
 #[cfg_attr(not(test), allow(dead_code))] // as PLUGINS

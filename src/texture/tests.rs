@@ -468,7 +468,7 @@ fn build(name: &str, toml_text: &str) -> Result<TextureSpec, PropError> {
 
 #[test]
 fn plugins_read_mitsubas_keys_and_defaults() {
-    assert_eq!(PLUGINS.iter().map(|p| p.name).collect::<Vec<_>>(), ["bitmap", "checkerboard"]);
+    assert_eq!(PLUGINS.iter().map(|p| p.name).collect::<Vec<_>>(), ["bitmap", "checkerboard", "mesh_attribute"]);
     assert_eq!(build("bitmap", "filename = \"a.png\"").unwrap(), TextureSpec::Bitmap(BitmapSpec { filename: "a.png".into(), ..bitmap_spec("") }));
     let all = "filename = \"b.exr\"\nraw = true\nfilter_type = \"nearest\"\nwrap_mode = \"mirror\"\nformat = \"fp16\"\naccel = false";
     assert_eq!(

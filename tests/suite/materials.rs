@@ -160,6 +160,32 @@ fn orthographic_pt_matches_mitsuba() {
     matches_mitsuba("orthographic", Estimator::Pt, 512);
 }
 
+#[test]
+fn mesh_attribute_pt_matches_mitsuba() {
+    // A PLY's 8-bit vertex colours (interpolated), its per-face colours and a per-face blend weight.
+    matches_mitsuba("mesh-attribute", Estimator::Pt, 512);
+}
+
+#[test]
+fn mesh_attribute_mis_matches_mitsuba() {
+    // The glass sphere's caustic on the per-face coloured floor: photons stored there and T2 paths read
+    // the attribute at their hits.
+    matches_mitsuba("mesh-attribute", Estimator::Mis, 64);
+}
+
+/// A shape whose material reads a mesh attribute it lacks is an error naming the shape, the attribute and
+/// the ones it has.
+#[test]
+fn a_missing_mesh_attribute_names_the_shape_and_the_attribute() {
+    let text = "[sensor]\nfov = 40\n[[shape]]\ntype = \"ply\"\nfilename = \"textures/colours.ply\"\n\
+bsdf = { type = \"diffuse\", reflectance = { type = \"mesh_attribute\", name = \"vertex_albedo\" } }\n";
+    let dir = repo_path("tests/data/materials");
+    let e = Scene::from_toml_str(text, &dir, std::path::Path::new("t.toml")).err().expect("accepted").to_string();
+    for part in ["shape[0]", "the ply shape \"textures/colours.ply\" has no attribute `vertex_albedo`", "it has vertex_color, face_color, face_weight"] {
+        assert!(e.contains(part), "{part:?} in {e}");
+    }
+}
+
 /// A textured property that the BSDF type cannot texture, a texture where only a constant is read, and a
 /// reference to a texture that does not exist are errors at their keys.
 #[test]
@@ -175,6 +201,9 @@ fn texture_errors_name_their_keys() {
         ("bsdf = { type = \"roughconductor\", alpha = { type = \"checkerboard\", color0 = 0, color1 = 0 } }", "shape[0].bsdf.alpha", "the texture's mean: the roughness alpha must be > 0"),
         ("bsdf = { type = \"normalmap\", normalmap = [0.5, 0.5, 1], bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "must be a texture"),
         ("bsdf = { type = \"normalmap\", bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "missing"),
+        ("bsdf = { type = \"diffuse\", reflectance = { type = \"mesh_attribute\", name = \"vertex_color\" } }", "shape[0]", "the rectangle shape has no attribute `vertex_color`, which its material reads (a `mesh_attribute` texture); it has none"),
+        ("bsdf = { type = \"diffuse\", reflectance = { type = \"mesh_attribute\", name = \"color\" } }", "shape[0].bsdf.reflectance.name", "must start with \"vertex_\" or \"face_\""),
+        ("emitter = { type = \"area\", radiance = { type = \"mesh_attribute\", name = \"vertex_color\" } }", "shape[0].emitter.radiance", "as an emitter's radiance"),
         ("bsdf = { type = \"bumpmap\", texture = { type = \"checkerboard\" }, scale = { type = \"checkerboard\" }, bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.scale", "cannot take a texture here"),
     ];
     for (bsdf, key, message) in cases {

@@ -202,7 +202,7 @@ fn everything_unsupported_is_reported_at_once() {
             r#"<scene version="3.0.0">
 <integrator type="guided_path"/>
 {SENSOR}
-<texture type="mesh_attribute" id="checks"/>
+<texture type="volume" id="checks"/>
 <bsdf type="principledthin" id="floor"/>
 <shape type="shapegroup"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
@@ -214,7 +214,7 @@ fn everything_unsupported_is_reported_at_once() {
     assert!(e.contains("uses 6 things caustica cannot render"), "{e}");
     for (line, phrase) in [
         (2, "integrator type \"guided_path\""),
-        (6, "texture type \"mesh_attribute\" is not supported yet"),
+        (6, "texture type \"volume\""),
         (7, "bsdf type \"principledthin\" is not supported yet"),
         (8, "shape type \"shapegroup\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),

@@ -57,7 +57,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
     ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
     ("film", "specfilm", "a film of spectral channels", OUT_OF_SCOPE),
-    ("texture", "mesh_attribute", "a per-vertex or per-face attribute of the mesh as a texture", LATER_MATERIALS),
     ("texture", "volume", "a volume grid as a texture", OUT_OF_SCOPE),
 ];
 
