@@ -54,6 +54,17 @@ fn photon_densities(q1_scale: f32, pdf_emit: f32, cos_theta: f32, q2: f32) -> (f
     }
 }
 
+/// The gather's acceptance test (method.md §3): a photon arriving along `wi` (unit, pointing back toward the
+/// light) at a vertex of geometric normal `ng` seen from `wo_side = ωₒ·n_g` enters the estimate only on ωₒ's
+/// side, `(ωₚ·n_g)·(ωₒ·n_g) > 0`. So T1 makes no path that crosses the surface at `x` (light transmitted by a
+/// rough dielectric, or a reflection a shading normal sends below `n_g`), and T2 must take such a path whole,
+/// `w₂ = 1` (method.md §1.1): the path tracer asks this same function of the direction it sampled at `x`.
+#[must_use]
+#[inline]
+pub fn t1_accepts(wi: Vec3, ng: Vec3, wo_side: f32) -> bool {
+    wi.dot(ng) * wo_side > 0.0
+}
+
 /// A name for the gather's acceptance test `ωₚ·n_g · (ωₒ·n_g) > 0`, which depends on `n_g` and on the side
 /// of `ωₒ` only: equal normals and sides give equal keys ([`crate::photon::KdTree::knn_warm`]).
 fn acceptance_key(ng: Vec3, wo_above: bool) -> u64 {
@@ -286,7 +297,8 @@ pub struct CausticOrigin {
     pub area: OriginArea,
     /// `α`: samples per pixel sharing the photon map if `x` is the first non-delta eye vertex, else 1.
     pub alpha: f32,
-    /// [`crate::photon::longest_chain`] at `x`: the longest delta chain T1 could have used there.
+    /// [`crate::photon::longest_chain`] at `x`: the longest delta chain T1 could have used there; 0 when the
+    /// sampled direction crossed the surface at `x`, where T1 uses no photon at all ([`t1_accepts`]).
     pub longest_chain: u32,
 }
 
@@ -598,7 +610,7 @@ impl<'a> CausticEstimator<'a> {
         // Warm-started from the recent queries in `memory` with the same test (the same ng and side).
         let key = acceptance_key(ng, wo_side > 0.0);
         // From the cell's list of leaves where it keeps one (OccupancyGrid::near), else from the root.
-        map.tree().knn_warm_from(p, self.knn, self.max_radius, key, near.search_from(), |i| decoded[i].wi.dot(ng) * wo_side > 0.0, memory, knn);
+        map.tree().knn_warm_from(p, self.knn, self.max_radius, key, near.search_from(), |i| t1_accepts(decoded[i].wi, ng, wo_side), memory, knn);
         let (r2, delta_area) = self.estimate_area(knn.r2(), p);
         (delta_area, Some(r2))
     }

@@ -14,7 +14,7 @@
 //! never scattered at a surface (escaped, or only passed through `null` surfaces and `mask` holes) shows
 //! nothing ([`PathTracer::hide_unscattered`]).
 
-use super::caustic::{CausticEstimator, CausticOrigin, GatherBuffers, GatherMemory, GatherScratch, LookedUp, OriginArea, Q1Range};
+use super::caustic::{t1_accepts, CausticEstimator, CausticOrigin, GatherBuffers, GatherMemory, GatherScratch, LookedUp, OriginArea, Q1Range};
 use crate::accel::{Accel, Hit};
 use crate::bsdf::TransportMode;
 use crate::light::Light;
@@ -451,7 +451,11 @@ impl<'a> PathTracer<'a> {
         } else {
             path.delta_vertices = 0;
             path.prev = Vertex::NonDelta { p: si.p, pdf_w: bs.pdf_w };
-            path.caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha, longest_chain: longest });
+            // A direction that crossed the surface at x (transmission through a rough dielectric) is one along
+            // which the gather takes no photon, so T1 makes none of its caustic paths: T2 takes them whole
+            // (`longest_chain` 0 gives w₂ = 1 in every estimator; method.md §1.1).
+            let longest_chain = if t1_accepts(wi_world, si.ng, wo_world.dot(si.ng)) { longest } else { 0 };
+            path.caustic = area.map(|area| CausticOrigin { pdf_w: bs.pdf_w, cos_theta: bs.wi_local.z.abs(), area, alpha, longest_chain });
         }
 
         // Russian roulette (survival ∝ throughput, capped at 0.95).

@@ -212,3 +212,56 @@ emitter = { type = "area", radiance = 5 }
     }
     assert!(images[0].mean_luminance() > 0.0);
 }
+
+/// A caustic seen through frosted glass (method.md §1.1): a smooth glass sphere focuses a small light onto
+/// the back of a rough glass screen (GGX, α 0.1) that faces the camera. The eye path's first vertex is the
+/// screen seen from the front, its BSDF sample crosses the screen and reaches the light through the sphere:
+/// a caustic path `L S S x` whose photons arrive on the other side of x than ωₒ, which the gather never
+/// takes. T2 must take those paths whole (`w₂ = 1`), in `pm` as in `mis`. Before that rule `pm` dropped them
+/// and `mis` weighted them against photons it never used: both rendered 2 % of `pt`'s image.
+#[test]
+fn a_caustic_through_frosted_glass_is_not_lost() {
+    let text = r#"
+[integrator]
+samples_per_pixel = 128
+[integrator.caustics]
+photons = 100000
+[sensor]
+fov = 40
+to_world = { look_at = { origin = [0, 0, 3], target = [0, 0, 0], up = [0, 1, 0] } }
+film = { width = 48, height = 32, rfilter = { type = "box" } }
+[[shape]]
+type = "rectangle"
+bsdf = { type = "roughdielectric", distribution = "ggx", alpha = 0.1 }
+[[shape]]
+type = "sphere"
+center = [0, 0, -0.8]
+radius = 0.3
+bsdf = { type = "dielectric" }
+[[shape]]
+type = "rectangle"
+to_world = [ { scale = 0.1 }, { translate = [0, 0, -2.2] } ]
+emitter = { type = "area", radiance = 100 }
+"#;
+    let scene = crate::common::scene_from_toml("frosted.toml", text);
+    let render = |estimator| {
+        let mut s = RenderSettings::from_scene(&scene);
+        s.estimator = estimator;
+        s.seed = SEED;
+        crate::common::render_with_variance(&scene, crate::common::backend(), &s)
+    };
+    let pt = render(Estimator::Pt);
+    let pt_mean = pt.lum.whole();
+    assert!(pt_mean.mean > 0.0);
+    for est in [Estimator::Pm, Estimator::Mis] {
+        let r = render(est);
+        let m = r.lum.whole();
+        let z = crate::common::z(m, pt_mean);
+        assert!(
+            (m.mean / pt_mean.mean - 1.0).abs() < 0.02 + 4.0 * (m.var + pt_mean.var).sqrt() / pt_mean.mean,
+            "{est:?}: mean {} against pt's {} (z = {z:.2})",
+            m.mean,
+            pt_mean.mean
+        );
+    }
+}

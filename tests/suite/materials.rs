@@ -82,6 +82,32 @@ fn roughdielectric_mis_matches_mitsuba() {
     matches_mitsuba("roughdielectric", Estimator::Mis, 64);
 }
 
+/// A caustic seen only through a frosted screen (docs/method.md §1.1): its paths cross the surface at the
+/// screen, so T2 takes them whole in `pm` and `mis`; before that rule `pm` rendered 1.7 % and `mis` 2.1 % of
+/// the image. Compared by means (the whole image, and the caustic's 16×16 pixels) rather than by 8×8 blocks:
+/// the dim blocks around the caustic (0.2–0.4 % of its brightness) are lit by rare paths through the
+/// sphere's rim whose sample variance is far from their spread at these counts (`pt` at 2,048 spp read 1.72
+/// and 0.79 of Mitsuba in two of them), and one dim block reads 0.980 of Mitsuba in every estimator at
+/// every count (not investigated: the same in `pt`, so not the caustic weights). Measured with the CLI
+/// (256 spp, seed 7; whole image, caustic): `pt` 1.020, 1.018; `pm` and `mis` 1.002, 1.000.
+#[test]
+fn frosted_caustic_means_match_mitsuba() {
+    let scene = Scene::load(&repo_path("tests/data/materials/frosted-caustic.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let reference = LumImage::from_image(&read_exr(repo_path("tests/data/materials/frosted-caustic-ref.exr")).unwrap_or_else(|e| panic!("{e}")));
+    for estimator in [Estimator::Pt, Estimator::Pm, Estimator::Mis] {
+        let mut s = RenderSettings::from_scene(&scene);
+        s.spp = 256;
+        s.seed = 7;
+        s.estimator = estimator;
+        let r = render_with_variance(&scene, backend(), &s);
+        for (name, ours, theirs) in [("whole image", r.lum.whole(), reference.whole()), ("caustic", r.lum.region(24, 16, 40, 32), reference.region(24, 16, 40, 32))] {
+            let ratio = ours.mean / theirs.mean;
+            let sigma = ours.sigma() / theirs.mean;
+            assert!((ratio - 1.0).abs() < 0.02 + 4.0 * sigma, "frosted-caustic ({estimator:?}), {name}: {ratio} of Mitsuba (σ {sigma})");
+        }
+    }
+}
+
 #[test]
 fn roughplastic_pt_matches_mitsuba() {
     // Measured: 0.9996 (0.16σ) at 512 spp; 1.0004 at 16,384 spp.
