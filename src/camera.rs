@@ -32,6 +32,54 @@ pub enum FovAxis {
     Larger,
 }
 
+impl FovAxis {
+    /// The axis Mitsuba names `name` (`x`, `y`, `diagonal`, `smaller`, `larger`; any case, as Mitsuba).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<FovAxis> {
+        Some(match name.to_ascii_lowercase().as_str() {
+            "x" => FovAxis::X,
+            "y" => FovAxis::Y,
+            "diagonal" => FovAxis::Diagonal,
+            "smaller" => FovAxis::Smaller,
+            "larger" => FovAxis::Larger,
+            _ => return None,
+        })
+    }
+}
+
+/// The field of view (degrees) of a 35 mm equivalent focal length written as `"50mm"` or `"50"`, across
+/// the film's diagonal ([`FovAxis::Diagonal`]), as Mitsuba's `parse_fov` (src/render/sensor.cpp):
+/// `2·atan(√(36² + 24²) / 2f)`. `None` unless the length is a positive number.
+#[must_use]
+pub fn focal_length_fov(text: &str) -> Option<f32> {
+    let mm: f64 = text.strip_suffix("mm").unwrap_or(text).trim().parse().ok().filter(|f: &f64| f.is_finite() && *f > 0.0)?;
+    Some((2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees()) as f32)
+}
+
+/// The half-extents `(tan_x, tan_y)` of a film of `width × height` at distance 1 for a field of view of
+/// `fov_deg` across `axis` (Mitsuba's `parse_fov` with the film's aspect, then `perspective_projection`):
+/// `tan_x / tan_y = width / height`. The perspective camera's film, and a projector's (`light::projector`).
+#[must_use]
+pub fn film_tan_half(fov_deg: f32, axis: FovAxis, width: u32, height: u32) -> Vec2 {
+    let (w, h) = (width as f32, height as f32);
+    let t = (0.5 * fov_deg.to_radians()).tan();
+    let axis_is_x = match axis {
+        FovAxis::X => Some(true),
+        FovAxis::Y => Some(false),
+        FovAxis::Smaller => Some(w <= h),
+        FovAxis::Larger => Some(w >= h),
+        FovAxis::Diagonal => None,
+    };
+    match axis_is_x {
+        Some(true) => Vec2::new(t, t * h / w),
+        Some(false) => Vec2::new(t * w / h, t),
+        None => {
+            let d = (w * w + h * h).sqrt();
+            Vec2::new(t * w / d, t * h / d)
+        }
+    }
+}
+
 /// Largest accepted film: 2³¹ pixels (e.g. 46340 × 46340), so that a pixel's index fits in 31 bits wherever
 /// it is computed. Whether the film fits in memory is a separate check (`render::memory`), made against the
 /// machine's memory before the render starts.
@@ -161,24 +209,7 @@ impl Camera {
         if u64::from(width) * u64::from(height) > MAX_FILM_PIXELS {
             return Err(CameraError::FilmTooLarge { width, height });
         }
-        let (w, h) = (width as f32, height as f32);
-        let t = (0.5 * self.fov_deg.to_radians()).tan();
-        let axis_is_x = match self.fov_axis {
-            FovAxis::X => Some(true),
-            FovAxis::Y => Some(false),
-            FovAxis::Smaller => Some(w <= h),
-            FovAxis::Larger => Some(w >= h),
-            FovAxis::Diagonal => None,
-        };
-        // The image plane at distance 1 spans [-tan_x, tan_x] × [-tan_y, tan_y], with tan_x / tan_y = w / h.
-        self.tan_half = match axis_is_x {
-            Some(true) => Vec2::new(t, t * h / w),
-            Some(false) => Vec2::new(t * w / h, t),
-            None => {
-                let d = (w * w + h * h).sqrt();
-                Vec2::new(t * w / d, t * h / d)
-            }
-        };
+        self.tan_half = film_tan_half(self.fov_deg, self.fov_axis, width, height);
         self.width = width;
         self.height = height;
         self.crop = Rect::new(0, 0, width, height);

@@ -300,7 +300,7 @@ pub(super) mod tests {
         let p = build_from("specular_reflectance = 0.6\ndiffuse_reflectance = 0.7\nensure_energy_conservation = false", Vec::new()).unwrap();
         assert_eq!(p.energy_scale, 1.0);
         // A textured reflectance: its maximum decides the scale, its mean the sampling weight.
-        let t = Textured { mean: Vec3::splat(0.3), mean_1: 0.3, max: Vec3::new(0.9, 0.2, 0.2) };
+        let t = Textured { mean: Vec3::splat(0.3), mean_1: 0.3, max: Vec3::new(0.9, 0.2, 0.2), min: Vec3::ZERO };
         let p = build_from("specular_reflectance = { type = \"bitmap\" }", vec![("specular_reflectance", t)]).unwrap();
         assert!((p.energy_scale - 0.99 / 1.4).abs() < 1e-6 && (p.specular_weight - 0.3 / 0.8).abs() < 1e-6);
         // Luminance weights: a green specular against a red diffuse.

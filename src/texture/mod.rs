@@ -173,6 +173,15 @@ impl Texture {
         }
     }
 
+    /// Width and height in texels (Mitsuba's `resolution()`): a bitmap's image's, 1 × 1 for the others.
+    #[must_use]
+    pub fn resolution(&self) -> (u32, u32) {
+        match self {
+            Texture::Bitmap(b) => (b.image().width(), b.image().height()),
+            Texture::Constant(_) | Texture::Checkerboard(_) => (1, 1),
+        }
+    }
+
     /// Whether the value depends on the texture coordinate (Mitsuba's `is_spatially_varying`).
     #[must_use]
     pub fn is_spatially_varying(&self) -> bool {
