@@ -23,10 +23,11 @@
 //! rows ([`TextureImage`]), the form a lookup reads fastest; what Mitsuba's storage precision (`format`)
 //! does to the values (half precision for 16-bit and half-float sources) is applied at load, so lookups
 //! give Mitsuba's numbers. Formats: PNG (8/16-bit; grey, grey+alpha, RGB, RGBA, palette), JPEG, OpenEXR
-//! (R,G,B[,A] or Y[,A] channels, half or float), Radiance HDR and PFM, recognised by their first bytes as
-//! Mitsuba does. Alpha is dropped (Mitsuba's RGB variants store `Y` or `RGB`, `target_pixel_format`).
+//! (R,G,B[,A] or Y[,A] channels, half or float), Radiance HDR, PFM and uncompressed BMP (`bmp`),
+//! recognised by their first bytes as Mitsuba does. Alpha is dropped (Mitsuba's RGB variants store `Y` or `RGB`, `target_pixel_format`).
 
 mod bitmap;
+mod bmp;
 mod cache;
 mod checkerboard;
 mod decode;
