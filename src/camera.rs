@@ -1,24 +1,50 @@
-//! The perspective camera: Mitsuba's `perspective` sensor (fov, fov_axis, to_world) over a film of
+//! The camera: Mitsuba's `perspective`, `thinlens` and `orthographic` sensors over a film of
 //! `width × height` pixels with an optional crop window.
 //!
 //! ```toml
 //! [sensor]
-//! type = "perspective"
-//! fov = 39.3077            # degrees, in (0, 180)
+//! type = "perspective"     # perspective (default) | thinlens | orthographic
+//! fov = 39.3077            # degrees, in (0, 180); or focal_length = "50mm" (not for orthographic)
 //! fov_axis = "smaller"     # x (default, as Mitsuba) | y | diagonal | smaller | larger
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 128, 256] }   # crop = [x0, y0, x1, y1], exclusive
 //! # film.rfilter = { type = "box" }   # the pixel reconstruction filter (`film::filter`; default gaussian)
+//!
+//! # thinlens only:
+//! # aperture_radius = 0.05   # required (Mitsuba has no default), ≥ 0; 0 is a pinhole
+//! # focus_distance = 4.0     # distance of the plane in focus along the viewing axis; default far_clip
+//! # thinlens and orthographic: Mitsuba's clip planes, near_clip = 0.01 and far_clip = 10000 by default
 //! ```
 //!
 //! Conventions (Mitsuba's): in camera space the camera looks along +z with +y up and **+x to the left of the
 //! image** (`look_at` builds the columns left, up, dir). Film coordinates are pixels with (0, 0) the
 //! top-left corner of the full film and y growing downwards; the pixel (i, j) covers [i, i+1) × [j, j+1).
-//! The crop window only selects which pixels are rendered; rays are those of the full film. There is no
-//! near clip (rays start at the camera position).
+//! The crop window only selects which pixels are rendered; rays are those of the full film.
+//!
+//! The three projections ([`Projection`]):
+//! - `perspective`: a pinhole; rays start at the camera position and are unbounded. Its clip planes are
+//!   accepted only where they clip nothing (`scene::clip`), so its images stay those of earlier versions.
+//! - `thinlens` (Mitsuba's src/sensors/thinlens.cpp, `sample_ray`): the film point is seen through a
+//!   circular aperture of radius `aperture_radius` in the camera's z = 0 plane. A lens sample (the
+//!   concentric disk map of one 2-D dimension of the sample, drawn right after the pixel position) picks a
+//!   point on the aperture; the ray goes from it to where the pinhole ray of the film point meets the plane
+//!   z = `focus_distance`, so every lens sample of a film point meets there (that plane is in focus). The
+//!   ray is then cut to depths [near_clip, far_clip] along the camera's z. Mitsuba refuses a `to_world` with
+//!   a scale (its `has_scale`: any product of two rows of the linear part off the identity's by > 10⁻³);
+//!   so does caustica.
+//! - `orthographic` (Mitsuba's src/sensors/orthographic.cpp with `orthographic_projection` of
+//!   include/mitsuba/render/sensor.h): the full film covers x ∈ [-1, 1] (left to right: +1 to -1) and
+//!   y ∈ [-h/w, h/w] of the camera plane, at depth `near_clip`; every ray leaves its film point along the
+//!   camera's +z, normalised in world space, for a length `far_clip − near_clip`. `to_world` may scale: a
+//!   scale of 10 in x and y makes the view 20 units wide.
+//!
+//! No code connects paths to the camera (photons do not hit it, no light tracing), so the sensors need
+//! no importance or position pdf.
 
 use crate::film::PixelFilter;
 use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
+use crate::sampler::Sampler;
+use crate::sampling::warp::square_to_uniform_disk_concentric;
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -56,26 +82,55 @@ pub fn focal_length_fov(text: &str) -> Option<f32> {
     Some((2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees()) as f32)
 }
 
-/// The half-extents `(tan_x, tan_y)` of a film of `width × height` at distance 1 for a field of view of
-/// `fov_deg` across `axis` (Mitsuba's `parse_fov` with the film's aspect, then `perspective_projection`):
-/// `tan_x / tan_y = width / height`. The perspective camera's film, and a projector's (`light::projector`).
-#[must_use]
-pub fn film_tan_half(fov_deg: f32, axis: FovAxis, width: u32, height: u32) -> Vec2 {
-    let (w, h) = (width as f32, height as f32);
-    let t = (0.5 * fov_deg.to_radians()).tan();
-    let axis_is_x = match axis {
-        FovAxis::X => Some(true),
-        FovAxis::Y => Some(false),
-        FovAxis::Smaller => Some(w <= h),
-        FovAxis::Larger => Some(w >= h),
-        FovAxis::Diagonal => None,
-    };
-    match axis_is_x {
-        Some(true) => Vec2::new(t, t * h / w),
-        Some(false) => Vec2::new(t * w / h, t),
-        None => {
-            let d = (w * w + h * h).sqrt();
-            Vec2::new(t * w / d, t * h / d)
+/// Mitsuba's default near clip plane (`ProjectiveCamera`, src/render/sensor.cpp): thinlens and orthographic.
+pub const DEFAULT_NEAR_CLIP: f32 = 1e-2;
+/// Mitsuba's default far clip plane (`ProjectiveCamera`); also the thin lens's default `focus_distance`.
+pub const DEFAULT_FAR_CLIP: f32 = 1e4;
+
+/// How film points become rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Mitsuba's `perspective`: a pinhole, `fov` degrees along `fov_axis`.
+    Perspective { fov_deg: f32, fov_axis: FovAxis },
+    /// Mitsuba's `thinlens`: a perspective view through a circular aperture, in focus at `focus_distance`.
+    ThinLens {
+        fov_deg: f32,
+        fov_axis: FovAxis,
+        aperture_radius: f32,
+        focus_distance: f32,
+        near_clip: f32,
+        far_clip: f32,
+    },
+    /// Mitsuba's `orthographic`: parallel rays from the camera plane's [-1, 1] × [-h/w, h/w].
+    Orthographic { near_clip: f32, far_clip: f32 },
+}
+
+impl Projection {
+    /// Mitsuba's plugin name.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Projection::Perspective { .. } => "perspective",
+            Projection::ThinLens { .. } => "thinlens",
+            Projection::Orthographic { .. } => "orthographic",
+        }
+    }
+
+    /// The field of view and its axis (none for orthographic).
+    #[must_use]
+    pub fn fov(&self) -> Option<(f32, FovAxis)> {
+        match *self {
+            Projection::Perspective { fov_deg, fov_axis } | Projection::ThinLens { fov_deg, fov_axis, .. } => Some((fov_deg, fov_axis)),
+            Projection::Orthographic { .. } => None,
+        }
+    }
+
+    /// The clip planes (near, far), where the projection has them (not perspective: see the module docs).
+    #[must_use]
+    pub fn clip(&self) -> Option<(f32, f32)> {
+        match *self {
+            Projection::Perspective { .. } => None,
+            Projection::ThinLens { near_clip, far_clip, .. } | Projection::Orthographic { near_clip, far_clip } => Some((near_clip, far_clip)),
         }
     }
 }
@@ -105,31 +160,68 @@ pub enum CameraError {
     },
     #[error("the camera's to_world is not finite, not affine or singular")]
     Transform,
+    #[error("a thinlens camera's to_world must not scale (as in Mitsuba: rotations, translations and look_at only)")]
+    Scale,
+    #[error("aperture_radius must be finite and ≥ 0, got {0}")]
+    ApertureRadius(f32),
+    #[error("focus_distance must be finite and > 0, got {0}")]
+    FocusDistance(f32),
+    #[error("near_clip must be finite and > 0, got {0}")]
+    NearClip(f32),
+    #[error("far_clip ({far}) must be finite and greater than near_clip ({near})")]
+    FarClip { near: f32, far: f32 },
 }
 
-/// A pinhole perspective camera.
+/// The camera: a projection, its placement and the film it renders.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     camera_to_world: Mat4,
     /// Linear part of `camera_to_world` (maps camera-space directions to world space).
     basis: Mat3,
     origin: Vec3,
-    fov_deg: f32,
-    fov_axis: FovAxis,
+    projection: Projection,
     width: u32,
     height: u32,
     crop: Rect,
     /// How the film reconstructs pixels from the samples (the film's `rfilter`).
     filter: PixelFilter,
-    /// tan of half the field of view along film x and film y.
-    tan_half: Vec2,
+    /// Perspective and thin lens: tan of half the field of view along film x and film y (the image plane at
+    /// depth 1 spans [-half.x, half.x] × [-half.y, half.y]). Orthographic: the half extent of the camera
+    /// plane the film covers, (1, h/w).
+    half: Vec2,
+    /// Orthographic: the world direction of every ray (`basis · +z`, normalised).
+    ortho_dir: Vec3,
 }
 
 impl Camera {
-    /// A camera with the full film as its crop window.
+    /// A perspective camera with the full film as its crop window.
     pub fn new(camera_to_world: Mat4, fov_deg: f32, fov_axis: FovAxis, width: u32, height: u32) -> Result<Camera, CameraError> {
-        if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 180.0) {
-            return Err(CameraError::Fov(fov_deg));
+        Camera::with_projection(camera_to_world, Projection::Perspective { fov_deg, fov_axis }, width, height)
+    }
+
+    /// A camera of any projection with the full film as its crop window; its parameters checked here.
+    pub fn with_projection(camera_to_world: Mat4, projection: Projection, width: u32, height: u32) -> Result<Camera, CameraError> {
+        if let Some((fov_deg, _)) = projection.fov() {
+            if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 180.0) {
+                return Err(CameraError::Fov(fov_deg));
+            }
+        }
+        if let Projection::ThinLens { aperture_radius, focus_distance, .. } = projection {
+            if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
+                return Err(CameraError::ApertureRadius(aperture_radius));
+            }
+            if !(focus_distance.is_finite() && focus_distance > 0.0) {
+                return Err(CameraError::FocusDistance(focus_distance));
+            }
+        }
+        // Mitsuba's `ProjectiveCamera` constructor: 0 < near_clip < far_clip.
+        if let Some((near, far)) = projection.clip() {
+            if !(near.is_finite() && near > 0.0) {
+                return Err(CameraError::NearClip(near));
+            }
+            if !(far.is_finite() && far > near) {
+                return Err(CameraError::FarClip { near, far });
+            }
         }
         let basis = Mat3::from_mat4(camera_to_world);
         let det = basis.determinant();
@@ -137,22 +229,24 @@ impl Camera {
         if !camera_to_world.is_finite() || !affine || !det.is_finite() || det == 0.0 {
             return Err(CameraError::Transform);
         }
+        if matches!(projection, Projection::ThinLens { .. }) && has_scale(basis) {
+            return Err(CameraError::Scale);
+        }
         let mut camera = Camera {
             camera_to_world,
             basis,
             origin: camera_to_world.w_axis.truncate(),
-            fov_deg,
-            fov_axis,
+            projection,
             width: 1,
             height: 1,
             crop: Rect::new(0, 0, 1, 1),
             filter: PixelFilter::default(),
-            tan_half: Vec2::ONE,
+            half: Vec2::ONE,
+            ortho_dir: (basis * Vec3::Z).normalize(),
         };
         camera.set_resolution(width, height)?;
         Ok(camera)
     }
-
     #[must_use]
     pub fn width(&self) -> u32 {
         self.width
@@ -180,14 +274,16 @@ impl Camera {
         self.filter = filter;
     }
 
+    /// The projection and its parameters.
     #[must_use]
-    pub fn fov_deg(&self) -> f32 {
-        self.fov_deg
+    pub fn projection(&self) -> Projection {
+        self.projection
     }
 
+    /// The field of view in degrees and its axis (none for orthographic).
     #[must_use]
-    pub fn fov_axis(&self) -> FovAxis {
-        self.fov_axis
+    pub fn fov(&self) -> Option<(f32, FovAxis)> {
+        self.projection.fov()
     }
 
     #[must_use]
@@ -209,7 +305,12 @@ impl Camera {
         if u64::from(width) * u64::from(height) > MAX_FILM_PIXELS {
             return Err(CameraError::FilmTooLarge { width, height });
         }
-        self.tan_half = film_tan_half(self.fov_deg, self.fov_axis, width, height);
+        let (w, h) = (width as f32, height as f32);
+        self.half = match self.projection.fov() {
+            Some((fov_deg, fov_axis)) => tan_half(fov_deg, fov_axis, w, h),
+            // Mitsuba's `orthographic_projection`: x spans [-1, 1], y the same scaled by h/w.
+            None => Vec2::new(1.0, h / w),
+        };
         self.width = width;
         self.height = height;
         self.crop = Rect::new(0, 0, width, height);
@@ -233,18 +334,92 @@ impl Camera {
         Ok(())
     }
 
-    /// The primary ray through film position (`film_x`, `film_y`) in pixels, (0, 0) = top-left corner of
-    /// the full film. The direction is unit length; `t ∈ [0, ∞)`.
+    /// Whether [`Camera::sample_ray`] draws a lens sample (thin lens only).
+    #[must_use]
+    pub fn needs_lens_sample(&self) -> bool {
+        matches!(self.projection, Projection::ThinLens { .. })
+    }
+
+    /// Sample ray through film position (`film_x`, `film_y`) (pixels, as [`Camera::generate_ray`]): a thin
+    /// lens draws its lens sample from `sampler` (one 2-D dimension); the other projections draw nothing,
+    /// so their samples' later dimensions are those of a pinhole.
+    #[must_use]
+    pub fn sample_ray(&self, film_x: f32, film_y: f32, sampler: &mut Sampler) -> Ray {
+        let lens = if self.needs_lens_sample() { sampler.next_2d() } else { Vec2::splat(0.5) };
+        self.ray_through(film_x, film_y, lens)
+    }
+
+    /// The ray through film position (`film_x`, `film_y`) and the centre of the lens. The direction is
+    /// unit length; a perspective ray has `t ∈ [0, ∞)`, the others start at the near clip plane.
     #[must_use]
     pub fn generate_ray(&self, film_x: f32, film_y: f32) -> Ray {
+        self.ray_through(film_x, film_y, Vec2::splat(0.5))
+    }
+
+    /// The ray through film position (`film_x`, `film_y`) in pixels, (0, 0) = top-left corner of the full
+    /// film, and the lens point of `lens ∈ [0, 1)²` (by the concentric disk map; unused but by the thin lens;
+    /// (½, ½) is the centre). The direction is unit length.
+    #[must_use]
+    pub fn ray_through(&self, film_x: f32, film_y: f32, lens: Vec2) -> Ray {
         // Normalised device coordinates in [-1, 1], x to the right, y downwards.
         let ndc_x = 2.0 * film_x / self.width as f32 - 1.0;
         let ndc_y = 2.0 * film_y / self.height as f32 - 1.0;
-        // Camera space: +x is left and +y is up (Mitsuba), so both flip.
-        let d_camera = Vec3::new(-ndc_x * self.tan_half.x, -ndc_y * self.tan_half.y, 1.0);
-        let dir = (self.basis * d_camera).normalize();
-        Ray::new(self.origin, dir)
+        // Camera space: +x is left and +y is up (Mitsuba), so both flip. The film point on the plane at
+        // depth 1 (perspective, thin lens) or on the camera plane (orthographic).
+        let film = Vec2::new(-ndc_x * self.half.x, -ndc_y * self.half.y);
+        match self.projection {
+            Projection::Perspective { .. } => {
+                let dir = (self.basis * film.extend(1.0)).normalize();
+                Ray::new(self.origin, dir)
+            }
+            Projection::ThinLens { aperture_radius, focus_distance, near_clip, far_clip, .. } => {
+                // thinlens.cpp `sample_ray`: from the aperture point to where the pinhole ray meets the
+                // focal plane, cut to the depths [near_clip, far_clip].
+                let aperture = (aperture_radius * square_to_uniform_disk_concentric(lens)).extend(0.0);
+                let focus = film.extend(1.0) * focus_distance;
+                let d = (focus - aperture).normalize();
+                let dir = (self.basis * d).normalize();
+                let (near_t, far_t) = (near_clip / d.z, far_clip / d.z);
+                let origin = self.camera_to_world.transform_point3(aperture) + dir * near_t;
+                Ray::segment(origin, dir, 0.0, far_t - near_t)
+            }
+            Projection::Orthographic { near_clip, far_clip } => {
+                // orthographic.cpp `sample_ray`: the film point on the near plane, along +z.
+                let origin = self.camera_to_world.transform_point3(film.extend(near_clip));
+                Ray::segment(origin, self.ortho_dir, 0.0, far_clip - near_clip)
+            }
+        }
     }
+}
+
+/// tan of half the field of view along film x and y for a `w × h` film: `fov` on its axis, the other in
+/// proportion (tan_x / tan_y = w / h): Mitsuba's `parse_fov` with the film's aspect, then
+/// `perspective_projection`. The perspective camera's film, and a projector's (`emitter::projector`).
+#[must_use]
+pub fn tan_half(fov_deg: f32, fov_axis: FovAxis, w: f32, h: f32) -> Vec2 {
+    let t = (0.5 * fov_deg.to_radians()).tan();
+    let axis_is_x = match fov_axis {
+        FovAxis::X => Some(true),
+        FovAxis::Y => Some(false),
+        FovAxis::Smaller => Some(w <= h),
+        FovAxis::Larger => Some(w >= h),
+        FovAxis::Diagonal => None,
+    };
+    match axis_is_x {
+        Some(true) => Vec2::new(t, t * h / w),
+        Some(false) => Vec2::new(t * w / h, t),
+        None => {
+            let d = (w * w + h * h).sqrt();
+            Vec2::new(t * w / d, t * h / d)
+        }
+    }
+}
+
+/// Mitsuba's `Transform::has_scale` (include/mitsuba/core/transform.h): some product of two rows of the
+/// linear part differs from the identity's (1 on a row with itself, 0 between two) by more than 10⁻³.
+fn has_scale(m: Mat3) -> bool {
+    let rows = [m.row(0), m.row(1), m.row(2)];
+    (0..3).any(|i| (i..3).any(|j| (rows[i].dot(rows[j]) - if i == j { 1.0 } else { 0.0 }).abs() > 1e-3))
 }
 
 #[cfg(test)]
@@ -332,5 +507,119 @@ mod tests {
         );
         cam.set_resolution(16, 8).unwrap();
         assert_eq!((cam.width(), cam.height(), cam.crop()), (16, 8, Rect::new(0, 0, 16, 8)));
+    }
+
+    fn thin_lens(m: Mat4, aperture_radius: f32, focus_distance: f32) -> Camera {
+        let p = Projection::ThinLens {
+            fov_deg: 40.0,
+            fov_axis: FovAxis::X,
+            aperture_radius,
+            focus_distance,
+            near_clip: DEFAULT_NEAR_CLIP,
+            far_clip: DEFAULT_FAR_CLIP,
+        };
+        Camera::with_projection(m, p, 64, 48).unwrap()
+    }
+
+    /// Lens samples over [0, 1)², a grid with its corners.
+    fn lens_samples() -> impl Iterator<Item = Vec2> {
+        (0..7).flat_map(|i| (0..7).map(move |j| Vec2::new(i as f32 / 6.0, j as f32 / 6.0).min(Vec2::splat(0.999_999))))
+    }
+
+    #[test]
+    fn a_thin_lens_without_aperture_is_the_pinhole() {
+        let m = look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-2.0, 0.5, 0.0), Vec3::Y).unwrap();
+        let pinhole = Camera::new(m, 40.0, FovAxis::X, 64, 48).unwrap();
+        let lens = thin_lens(m, 0.0, 7.0);
+        for (x, y) in [(0.0, 0.0), (32.0, 24.0), (63.5, 10.25), (64.0, 48.0)] {
+            let p = pinhole.generate_ray(x, y);
+            for u in lens_samples() {
+                let r = lens.ray_through(x, y, u);
+                assert!(r.dir.abs_diff_eq(p.dir, 1e-6), "{x},{y} {u}: {} vs {}", r.dir, p.dir);
+                // The same line, started at the near clip plane (depth 0.01 along the axis).
+                let depth = (r.origin - p.origin).dot(pinhole.generate_ray(32.0, 24.0).dir);
+                assert!((depth - DEFAULT_NEAR_CLIP).abs() < 1e-5, "{depth}");
+                assert!(r.origin.abs_diff_eq(p.at((r.origin - p.origin).length()), 1e-5));
+            }
+        }
+    }
+
+    #[test]
+    fn thin_lens_rays_of_a_film_point_meet_on_the_focal_plane() {
+        let (o, target) = (Vec3::new(0.5, 1.0, 6.0), Vec3::new(0.0, 0.5, 0.0));
+        let m = look_at(o, target, Vec3::Y).unwrap();
+        let axis = (target - o).normalize();
+        let focus = 4.5;
+        let cam = thin_lens(m, 0.25, focus);
+        for (x, y) in [(32.0, 24.0), (3.5, 40.0), (60.0, 1.0)] {
+            // Where each lens sample's ray reaches depth `focus` along the viewing axis.
+            let meets: Vec<Vec3> = lens_samples()
+                .map(|u| {
+                    let r = cam.ray_through(x, y, u);
+                    let t = (focus - (r.origin - o).dot(axis)) / r.dir.dot(axis);
+                    r.at(t)
+                })
+                .collect();
+            let first = meets[0];
+            assert!(meets.iter().all(|p| p.abs_diff_eq(first, 1e-4)), "{x},{y}: {meets:?}");
+            // That point is on the pinhole ray of the film point.
+            let pin = Camera::new(m, 40.0, FovAxis::X, 64, 48).unwrap().generate_ray(x, y);
+            assert!(pin.at(pin.origin.distance(first)).abs_diff_eq(first, 1e-4));
+            // The lens samples start over the aperture: spread up to its radius around the camera.
+            let spread = lens_samples().map(|u| cam.ray_through(x, y, u).origin.distance(o)).fold(0.0f32, f32::max);
+            assert!(spread > 0.24 && spread < 0.26, "{spread}");
+        }
+        // The far clip plane ends the rays: depth 10⁴ along the axis.
+        let r = cam.ray_through(0.0, 0.0, Vec2::new(0.1, 0.9));
+        assert!(((r.at(r.t_max) - o).dot(axis) - DEFAULT_FAR_CLIP).abs() < 1.0);
+    }
+
+    #[test]
+    fn orthographic_rays_are_parallel_and_span_the_scaled_film() {
+        // Mitsuba's example: the sensor plane scaled to 20 × 20 units (× h/w in y), then placed by look_at.
+        let (o, target) = (Vec3::new(1.0, 1.0, 1.0), Vec3::new(1.0, 2.0, 1.0));
+        let place = look_at(o, target, Vec3::Z).unwrap();
+        let m = place * Mat4::from_scale(Vec3::new(10.0, 10.0, 1.0));
+        let p = Projection::Orthographic { near_clip: 0.5, far_clip: 100.0 };
+        let cam = Camera::with_projection(m, p, 64, 48).unwrap();
+        assert_eq!(cam.fov(), None);
+        let dir = Vec3::Y;
+        let corners = [(0.0, 0.0), (64.0, 0.0), (0.0, 48.0), (64.0, 48.0)].map(|(x, y)| cam.generate_ray(x, y));
+        for r in cam_rays(&cam).iter().chain(&corners) {
+            assert!(r.dir.abs_diff_eq(dir, 1e-6), "{}", r.dir);
+            // Every ray starts on the near plane, 0.5 ahead of the camera, and runs to the far one.
+            assert!(((r.origin - o).dot(dir) - 0.5).abs() < 1e-5);
+            assert!((r.t_max - 99.5).abs() < 1e-4);
+        }
+        // The film spans 20 units across (x of the image: the camera's left is world -x here) and 15 up
+        // (z, the up vector), centred on the axis.
+        let (tl, tr, bl) = (corners[0].origin, corners[1].origin, corners[2].origin);
+        assert!((tr - tl).abs_diff_eq(Vec3::new(20.0, 0.0, 0.0), 1e-4), "{}", tr - tl);
+        assert!((tl - bl).abs_diff_eq(Vec3::new(0.0, 0.0, 15.0), 1e-4), "{}", tl - bl);
+        assert!(cam.generate_ray(32.0, 24.0).origin.abs_diff_eq(o + 0.5 * dir, 1e-5));
+        // Neither projection draws a lens sample but the thin lens.
+        assert!(!cam.needs_lens_sample() && !Camera::new(m, 40.0, FovAxis::X, 4, 4).unwrap().needs_lens_sample());
+        assert!(thin_lens(place, 0.1, 1.0).needs_lens_sample());
+    }
+
+    fn cam_rays(cam: &Camera) -> Vec<Ray> {
+        (0..5).flat_map(|i| (0..5).map(move |j| (i as f32 * 13.1, j as f32 * 9.7))).map(|(x, y)| cam.generate_ray(x, y)).collect()
+    }
+
+    #[test]
+    fn lens_and_clip_parameters_are_checked() {
+        let m = Mat4::IDENTITY;
+        let lens = |a: f32, f: f32, n: f32, far: f32| Projection::ThinLens { fov_deg: 40.0, fov_axis: FovAxis::X, aperture_radius: a, focus_distance: f, near_clip: n, far_clip: far };
+        assert!(Camera::with_projection(m, lens(0.1, 2.0, 0.01, 100.0), 4, 4).is_ok());
+        assert_eq!(Camera::with_projection(m, lens(-0.1, 2.0, 0.01, 100.0), 4, 4), Err(CameraError::ApertureRadius(-0.1)));
+        assert_eq!(Camera::with_projection(m, lens(0.1, 0.0, 0.01, 100.0), 4, 4), Err(CameraError::FocusDistance(0.0)));
+        assert_eq!(Camera::with_projection(m, lens(0.1, 2.0, 0.0, 100.0), 4, 4), Err(CameraError::NearClip(0.0)));
+        assert_eq!(Camera::with_projection(m, lens(0.1, 2.0, 1.0, 1.0), 4, 4), Err(CameraError::FarClip { near: 1.0, far: 1.0 }));
+        // A scaled to_world: refused by the thin lens (Mitsuba's `has_scale`), taken by the orthographic camera.
+        let scaled = Mat4::from_scale(Vec3::new(2.0, 2.0, 1.0));
+        assert_eq!(Camera::with_projection(scaled, lens(0.1, 2.0, 0.01, 100.0), 4, 4), Err(CameraError::Scale));
+        let mirrored = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        assert!(Camera::with_projection(mirrored, lens(0.1, 2.0, 0.01, 100.0), 4, 4).is_ok());
+        assert!(Camera::with_projection(scaled, Projection::Orthographic { near_clip: 0.01, far_clip: 1e4 }, 4, 4).is_ok());
     }
 }

@@ -144,6 +144,7 @@ pub(super) fn sample(specular_reflectance: Vec3, eta_k: Option<(Vec3, Vec3)>, wo
         weight: specular_reflectance * fresnel,
         pdf_w: 1.0,
         delta: true,
+        pass_through: false,
     })
 }
 

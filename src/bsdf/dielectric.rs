@@ -102,6 +102,7 @@ pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Op
             weight: Vec3::ONE,
             pdf_w: r,
             delta: true,
+            pass_through: false,
         });
     }
     // Refraction (Snell, in vector form): wi = −η_ti·wo_tangential + cos θt·n (Mitsuba `refract`).
@@ -119,6 +120,7 @@ pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Op
         weight: Vec3::splat(scale),
         pdf_w: 1.0 - r,
         delta: true,
+        pass_through: false,
     })
 }
 

@@ -95,5 +95,5 @@ fn sample_wi(wo: Vec3, u_dir: Vec2) -> Option<Vec3> {
 pub(super) fn sample(reflectance: Vec3, wo: Vec3, u_dir: Vec2) -> Option<BsdfSample> {
     let wi = sample_wi(wo, u_dir)?;
     let pdf_w = pdf_w(wo, wi);
-    (pdf_w > 0.0).then_some(BsdfSample { wi_local: wi, weight: reflectance, pdf_w, delta: false })
+    (pdf_w > 0.0).then_some(BsdfSample { wi_local: wi, weight: reflectance, pdf_w, delta: false, pass_through: false })
 }

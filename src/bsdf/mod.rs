@@ -49,6 +49,7 @@ mod params;
 mod perturbed;
 mod phong;
 mod plastic;
+mod pplastic;
 mod principled;
 mod principled_lobes;
 mod rough_coating;
@@ -80,6 +81,7 @@ pub use plastic::Plastic;
 pub use principled::{Principled, SamplingRates};
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
+pub use pplastic::PPlastic;
 pub use roughplastic::RoughPlastic;
 pub use rough_coating::RoughCoating;
 pub use thindielectric::ThinDielectric;
@@ -221,6 +223,7 @@ bsdf_types! {
     ThinDielectric(thindielectric::ThinDielectric),
     Plastic(plastic::Plastic),
     RoughPlastic(roughplastic::RoughPlastic),
+    PPlastic(pplastic::PPlastic),
     Principled(principled::Principled),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
@@ -262,6 +265,9 @@ pub struct BsdfSample {
     /// `pdf_w()` returns). For delta samples: the discrete probability of having chosen that delta lobe.
     pub pdf_w: f32,
     pub delta: bool,
+    /// The lobe of `null` or of a `mask`'s transparent part (`null::pass_through`): the ray goes on
+    /// unchanged and nothing scattered (Mitsuba's `BSDFFlags::Null`; `hide_emitters` reads it).
+    pub pass_through: bool,
 }
 
 /// The largest f32 below 1: remapped uniform numbers are clamped to it to stay in `[0, 1)`.
@@ -397,5 +403,6 @@ fn non_delta_sample(m: &impl Model, wo: Vec3, wi: Vec3, mode: TransportMode) -> 
         weight,
         pdf_w,
         delta: false,
+        pass_through: false,
     })
 }

@@ -29,7 +29,7 @@ fn build(_: Props<'_, Bsdf>) -> Result<Bsdf, PropError> {
 /// The pass-through lobe with discrete probability `pdf_w` (1 for `null`, `1 − opacity` for a `mask`).
 #[must_use]
 pub(super) fn pass_through(wo: Vec3, pdf_w: f32) -> Option<BsdfSample> {
-    (pdf_w > 0.0).then_some(BsdfSample { wi_local: -wo, weight: Vec3::ONE, pdf_w, delta: true })
+    (pdf_w > 0.0).then_some(BsdfSample { wi_local: -wo, weight: Vec3::ONE, pdf_w, delta: true, pass_through: true })
 }
 
 impl Model for Null {

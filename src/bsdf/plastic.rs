@@ -155,7 +155,7 @@ impl Model for Plastic {
         let p_s = self.p_specular(f_o);
         if u_lobe < p_s {
             // The coating's mirror reflection: throughput F·specular_reflectance, chosen with p_s.
-            return Some(BsdfSample { wi_local: reflect_z(wo), weight: self.specular_reflectance * (f_o / p_s), pdf_w: p_s, delta: true });
+            return Some(BsdfSample { wi_local: reflect_z(wo), weight: self.specular_reflectance * (f_o / p_s), pdf_w: p_s, delta: true, pass_through: false });
         }
         let wi = square_to_cosine_hemisphere(u_dir);
         if wi.z <= 0.0 {

@@ -3,7 +3,7 @@
 //! sampled albedo == integrated albedo), and no NaN at grazing angles. The reflecting BSDFs are tested
 //! wrapped in `twosided` (so incident angles below the surface are covered) and alone (black from behind).
 
-use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided, Ward, WardVariant};
+use crate::bsdf::{Blend, Conductor, Dielectric, Diffuse, Mask, Null, PPlastic, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic, TwoSided, Ward, WardVariant};
 use super::*;
 use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Outcome, Chi2Test, PdfIntegral};
@@ -86,8 +86,8 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
 /// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic + 2×6 + 3
-/// masks + 7×3 + 3 perturbed frames + 4×3 phong + 3×3 + 2×2 ward + 25 principled): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 282;
+/// masks + 7×3 + 3 perturbed frames + 4×3 phong + 3×3 + 2×2 ward + 25 principled + 2×4×3 pplastic): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 306;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -264,6 +264,30 @@ fn chi2_roughplastic() {
                 cases.push((
                     format!("roughplastic {} α {alpha} visible {visible} θo {t}", kind.name()),
                     two(rough_plastic(kind, alpha, visible)),
+                    wo_at(t),
+                    PdfIntegral::AtMostOne,
+                ));
+            }
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+/// Mitsuba's `pplastic` (RGB form): a coloured base, polypropylene's index, isotropic or anisotropic.
+fn pplastic(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
+    let md = Microfacet { kind, alpha_u, alpha_v, sample_visible };
+    Bsdf::PPlastic(PPlastic::new(md, 1.49, Vec3::new(0.8, 0.5, 0.2), Vec3::ONE))
+}
+
+#[test]
+fn chi2_pplastic() {
+    let mut cases = Vec::new();
+    for kind in KINDS {
+        for (au, av, visible) in [(0.05, 0.05, true), (0.3, 0.3, true), (0.2, 0.2, false), (0.1, 0.4, true)] {
+            for t in [0.0, 45.0, 80.0] {
+                cases.push((
+                    format!("pplastic {} α {au}/{av} visible {visible} θo {t}", kind.name()),
+                    two(pplastic(kind, au, av, visible)),
                     wo_at(t),
                     PdfIntegral::AtMostOne,
                 ));
@@ -457,6 +481,8 @@ fn non_delta_zoo() -> Vec<Bsdf> {
     v.push(two(plastic()));
     v.push(two(rough_plastic(MicrofacetType::Beckmann, 0.1, true)));
     v.push(two(rough_plastic(MicrofacetType::Ggx, 0.4, false)));
+    v.push(two(pplastic(MicrofacetType::Beckmann, 0.1, 0.1, true)));
+    v.push(two(pplastic(MicrofacetType::Ggx, 0.1, 0.4, false)));
     v.push(two(phong(30.0, Vec3::new(0.5, 0.3, 0.1), Vec3::new(0.3, 0.4, 0.2))));
     v.push(two(phong(1.0, Vec3::splat(0.1), Vec3::splat(0.8))));
     v.push(two(phong(500.0, Vec3::ZERO, Vec3::ONE)));

@@ -60,7 +60,7 @@ impl Model for ThinDielectric {
         } else {
             (-wo, self.specular_transmittance, 1.0 - r)
         };
-        (pdf_w > 0.0).then_some(BsdfSample { wi_local, weight, pdf_w, delta: true })
+        (pdf_w > 0.0).then_some(BsdfSample { wi_local, weight, pdf_w, delta: true, pass_through: false })
     }
     fn chooses_lobe(&self) -> bool {
         true

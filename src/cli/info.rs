@@ -92,6 +92,7 @@ pub fn describe(scene: &Scene) -> String {
         settings.spp,
         settings.seed
     );
+    let _ = writeln!(s, "  sensor      {}", sensor(&scene.camera));
     let (centre, radius) = scene.bounds.bounding_sphere();
     let _ = writeln!(s, "  geometry    {} triangles, {} vertices, bounding sphere centre {} radius {radius:.4}", scene.triangle_count(), scene.mesh.positions.len(), fmt_vec(centre));
     let delta = scene.materials.iter().filter(|m| m.facts().has_delta).count();
@@ -106,6 +107,36 @@ pub fn describe(scene: &Scene) -> String {
     let _ = writeln!(s, "  memory      {}", memory(scene, &settings));
     for note in &scene.notes {
         let _ = writeln!(s, "  note        {note}");
+    }
+    s
+}
+
+/// The sensor's type, position and parameters (`crate::camera::Projection`).
+fn sensor(camera: &crate::camera::Camera) -> String {
+    use crate::camera::Projection;
+    let p = camera.projection();
+    let mut s = format!("{} at {}", p.name(), fmt_vec(camera.position()));
+    if let Some((fov, axis)) = p.fov() {
+        let _ = write!(s, ", fov {fov:.4}° ({axis:?})");
+    }
+    match p {
+        Projection::ThinLens { aperture_radius, focus_distance, .. } => {
+            let _ = write!(s, ", aperture radius {aperture_radius}, focus distance {focus_distance}");
+        }
+        Projection::Orthographic { .. } => {
+            // The view's size in world units: between the origins of the film's edge rays.
+            let (w, h) = (camera.width() as f32, camera.height() as f32);
+            let across = camera.generate_ray(0.0, 0.5 * h).origin.distance(camera.generate_ray(w, 0.5 * h).origin);
+            let down = camera.generate_ray(0.5 * w, 0.0).origin.distance(camera.generate_ray(0.5 * w, h).origin);
+            let _ = write!(s, ", view {across:.4} × {down:.4}");
+        }
+        Projection::Perspective { .. } => {}
+    }
+    match p.clip() {
+        Some((near, far)) => {
+            let _ = write!(s, ", clip [{near}, {far}]");
+        }
+        None => s.push_str(", no clip"),
     }
     s
 }

@@ -17,7 +17,7 @@
 //! ```
 
 use super::{power, similarity_scale, Emitter, Plugin};
-use crate::camera::{film_tan_half, focal_length_fov, FovAxis};
+use crate::camera::{focal_length_fov, tan_half, FovAxis};
 use crate::light::{Frustum, Light, PointLight, ProjectorProfile};
 use crate::math::{Mat3, Mat4, Vec3};
 use crate::props::{PropError, Props};
@@ -96,7 +96,7 @@ impl Projector {
             return None;
         }
         let (width, height) = texture.resolution();
-        let frustum = Frustum::new(self.frame, film_tan_half(self.fov_deg, self.fov_axis, width, height))?;
+        let frustum = Frustum::new(self.frame, tan_half(self.fov_deg, self.fov_axis, width as f32, height as f32))?;
         let profile = ProjectorProfile::new(frustum, texture);
         Some(Light::Point(PointLight::projector(self.position, Vec3::splat(self.scale_k), profile)))
     }

@@ -14,6 +14,7 @@
 //! rr_depth = 5
 //! samples_per_pixel = 64
 //! seed = 0
+//! hide_emitters = false # true: camera rays see no emitter, as Mitsuba's flag (path::PathTracer::hide_unscattered)
 //! [integrator.caustics]
 //! estimator = "mis"     # pt | pm | mis
 //! photons = 70000

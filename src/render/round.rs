@@ -112,12 +112,14 @@ pub struct RoundContext<'a> {
 pub fn trace_round(ctx: &RoundContext<'_>, state: &mut TileState, from: u32, to: u32) -> PathStats {
     let (scene, tracer, seed, width) = (ctx.scene, ctx.tracer, ctx.seed, ctx.width);
     let tile = state.tile;
-    // Sample `s` of pixel (x, y): its camera ray, its sampler (past the pixel position) and its position in
-    // the pixel (uniform, as Mitsuba's `render_sample`; where a wide filter weighs it).
+    // Sample `s` of pixel (x, y): its camera ray, its sampler (past the pixel position and, for a thin lens,
+    // the lens sample: Mitsuba's order) and its position in the pixel (uniform, as Mitsuba's
+    // `render_sample`; where a wide filter weighs it).
     let camera_sample = |x: u32, y: u32, s: u32| {
         let mut sampler = Sampler::for_pixel(seed, u64::from(y) * width + u64::from(x), u64::from(s));
         let j = sampler.next_2d();
-        (scene.camera.generate_ray(x as f32 + j.x, y as f32 + j.y), sampler, j)
+        let ray = scene.camera.sample_ray(x as f32 + j.x, y as f32 + j.y, &mut sampler);
+        (ray, sampler, j)
     };
     let TileState { buf, sums, memories, .. } = state;
     let mut ps = PathStats::default();

@@ -24,7 +24,7 @@ use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix, to_world_value};
 use super::xml::Places;
 use super::Scene;
-use crate::camera::{Camera, CameraError, FovAxis};
+use crate::camera::{self, Camera, CameraError, FovAxis, Projection};
 use crate::film::{filter, PixelFilter};
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
@@ -209,7 +209,9 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(s)) => {
             super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
-            super::clip::check(ctx, &camera, &mesh, bounds, s.near_clip, s.far_clip)?;
+            if s.kind == SensorType::Perspective {
+                super::clip::check(ctx, &camera, &mesh, bounds, s.near_clip, s.far_clip)?;
+            }
             camera
         }
         _ => camera(ctx, &default_sensor(bounds))?,
@@ -279,6 +281,7 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
         rr_depth: d.rr_depth,
         samples_per_pixel: d.samples_per_pixel,
         seed: d.seed,
+        hide_emitters: d.hide_emitters,
         caustics,
     })
 }
@@ -301,20 +304,21 @@ fn default_sensor(bounds: Aabb) -> SensorDesc {
 }
 
 fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
-    match s.kind {
-        SensorType::Perspective => {}
-    }
     let to_world = to_world_matrix(ctx, "sensor.to_world", s.to_world.as_ref())?;
     if s.to_world.is_some() {
         invertible_linear_part(ctx, "sensor.to_world", to_world)?;
     }
-    let (fov, fov_axis, fov_key) = field_of_view(ctx, s)?;
-    let mut camera = Camera::new(to_world, fov, fov_axis, s.film.width, s.film.height).map_err(|e| match e {
+    let (projection, fov_key) = projection(ctx, s)?;
+    let mut camera = Camera::with_projection(to_world, projection, s.film.width, s.film.height).map_err(|e| match e {
         CameraError::Fov(_) => ctx.key_error(fov_key, e.to_string()),
         CameraError::ZeroSizeFilm { width: 0, .. } => ctx.key_error("sensor.film.width", e.to_string()),
         CameraError::ZeroSizeFilm { .. } => ctx.key_error("sensor.film.height", e.to_string()),
         CameraError::FilmTooLarge { .. } => ctx.key_error("sensor.film", e.to_string()),
-        CameraError::Crop { .. } | CameraError::Transform => ctx.key_error("sensor.to_world", e.to_string()),
+        CameraError::ApertureRadius(_) => ctx.key_error("sensor.aperture_radius", e.to_string()),
+        CameraError::FocusDistance(_) => ctx.key_error("sensor.focus_distance", e.to_string()),
+        CameraError::NearClip(_) => ctx.key_error("sensor.near_clip", e.to_string()),
+        CameraError::FarClip { .. } => ctx.key_error("sensor.far_clip", e.to_string()),
+        CameraError::Crop { .. } | CameraError::Transform | CameraError::Scale => ctx.key_error("sensor.to_world", e.to_string()),
     })?;
     if let Some([x0, y0, x1, y1]) = s.film.crop {
         camera
@@ -326,6 +330,46 @@ fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
         None => PixelFilter::default(),
     });
     Ok(camera)
+}
+
+/// The sensor's projection (`crate::camera::Projection`) and the key its field of view came from: the keys
+/// of its type, Mitsuba's defaults for those left out (`crate::camera`), the keys of other types refused.
+fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<(Projection, &'static str), SceneError> {
+    let kind = s.kind;
+    let not_for = |key: &str, given: bool, applies: bool| {
+        if given && !applies {
+            let name = match kind {
+                SensorType::Perspective => "a perspective",
+                SensorType::Thinlens => "a thinlens",
+                SensorType::Orthographic => "an orthographic",
+            };
+            return Err(ctx.key_error(key, format!("{name} sensor has no {}", key.trim_start_matches("sensor."))));
+        }
+        Ok(())
+    };
+    let lens = kind == SensorType::Thinlens;
+    not_for("sensor.aperture_radius", s.aperture_radius.is_some(), lens)?;
+    not_for("sensor.focus_distance", s.focus_distance.is_some(), lens)?;
+    let perspective = kind != SensorType::Orthographic;
+    not_for("sensor.fov", s.fov.is_some(), perspective)?;
+    not_for("sensor.focal_length", s.focal_length.is_some(), perspective)?;
+    let near_clip = s.near_clip.unwrap_or(camera::DEFAULT_NEAR_CLIP);
+    let far_clip = s.far_clip.unwrap_or(camera::DEFAULT_FAR_CLIP);
+    Ok(match kind {
+        SensorType::Perspective => {
+            let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;
+            (Projection::Perspective { fov_deg, fov_axis }, key)
+        }
+        SensorType::Thinlens => {
+            let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;
+            // thinlens.cpp reads `aperture_radius` without a default.
+            let aperture_radius = s.aperture_radius.ok_or_else(|| ctx.key_error("sensor", "a thinlens sensor needs aperture_radius"))?;
+            // `ProjectiveCamera`: the focal plane defaults to the far clip plane.
+            let focus_distance = s.focus_distance.unwrap_or(far_clip);
+            (Projection::ThinLens { fov_deg, fov_axis, aperture_radius, focus_distance, near_clip, far_clip }, key)
+        }
+        SensorType::Orthographic => (Projection::Orthographic { near_clip, far_clip }, "sensor"),
+    })
 }
 
 /// The sensor's field of view in degrees, its axis, and the key it came from: `fov` (with `fov_axis`), or
@@ -490,4 +534,43 @@ fn vertex_normals(mesh: &TriangleMesh) -> Vec<Vec3> {
         *n = n.normalize_or_zero();
     }
     normals
+}
+
+#[cfg(test)]
+mod sensor_tests {
+    use std::path::Path;
+
+    use crate::camera::{Projection, DEFAULT_FAR_CLIP, DEFAULT_NEAR_CLIP};
+    use crate::scene::Scene;
+
+    fn load(sensor: &str) -> Result<Scene, String> {
+        let text = format!("[sensor]\n{sensor}\nfilm = {{ width = 8, height = 6 }}\n\n[[shape]]\ntype = \"cube\"\n");
+        Scene::from_toml_str(&text, Path::new("."), Path::new("s.toml")).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn sensor_keys_defaults_and_errors() {
+        // Mitsuba's defaults: clip planes 0.01 and 10⁴, the focal plane at the far clip plane, 50 mm.
+        let s = load("type = \"thinlens\"\naperture_radius = 0.1").unwrap();
+        match s.camera.projection() {
+            Projection::ThinLens { aperture_radius, focus_distance, near_clip, far_clip, .. } => {
+                assert_eq!((aperture_radius, focus_distance, near_clip, far_clip), (0.1, DEFAULT_FAR_CLIP, DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP));
+            }
+            p => panic!("{p:?}"),
+        }
+        let s = load("type = \"orthographic\"\nnear_clip = 0.5\nfar_clip = 20").unwrap();
+        assert_eq!(s.camera.projection(), Projection::Orthographic { near_clip: 0.5, far_clip: 20.0 });
+        for (sensor, key, says) in [
+            ("type = \"thinlens\"", "sensor", "needs aperture_radius"),
+            ("type = \"thinlens\"\naperture_radius = -1", "sensor.aperture_radius", "≥ 0"),
+            ("type = \"thinlens\"\naperture_radius = 0.1\nfocus_distance = 0", "sensor.focus_distance", "> 0"),
+            ("type = \"thinlens\"\naperture_radius = 0.1\nto_world = { scale = 2 }", "sensor.to_world", "must not scale"),
+            ("type = \"orthographic\"\nfov = 40", "sensor.fov", "an orthographic sensor has no fov"),
+            ("type = \"orthographic\"\nnear_clip = 2\nfar_clip = 1", "sensor.far_clip", "greater than near_clip"),
+            ("aperture_radius = 0.1", "sensor.aperture_radius", "a perspective sensor has no aperture_radius"),
+        ] {
+            let e = load(sensor).err().unwrap_or_else(|| panic!("{sensor}: loads"));
+            assert!(e.contains(key) && e.contains(says), "{sensor}: {e}");
+        }
+    }
 }

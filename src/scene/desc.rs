@@ -43,6 +43,7 @@ pub(crate) struct IntegratorDesc {
     pub rr_depth: u32,
     pub samples_per_pixel: u32,
     pub seed: u64,
+    pub hide_emitters: bool,
     pub caustics: Option<CausticsDesc>,
     /// `name:type,…` (`scene::aov`).
     pub aovs: Option<String>,
@@ -55,6 +56,7 @@ impl Default for IntegratorDesc {
             rr_depth: defaults::RR_DEPTH,
             samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
             seed: defaults::SEED,
+            hide_emitters: defaults::HIDE_EMITTERS,
             caustics: None,
             aovs: None,
         }
@@ -84,6 +86,8 @@ impl Default for CausticsDesc {
 pub(crate) enum SensorType {
     #[default]
     Perspective,
+    Thinlens,
+    Orthographic,
 }
 
 #[derive(Debug, Default, DeriveDeserialize)]
@@ -97,9 +101,13 @@ pub(crate) struct SensorDesc {
     pub focal_length: Option<String>,
     #[serde(default)]
     pub fov_axis: FovAxis,
-    /// Mitsuba's clip planes: accepted only where they clip nothing (`clip`).
+    /// Mitsuba's clip planes: a perspective camera accepts them only where they clip nothing (`clip`);
+    /// thinlens and orthographic clip (`crate::camera`, defaults there).
     pub near_clip: Option<f32>,
     pub far_clip: Option<f32>,
+    /// thinlens only: the aperture's radius (required) and the distance in focus (default far_clip).
+    pub aperture_radius: Option<f32>,
+    pub focus_distance: Option<f32>,
     pub to_world: Option<ToWorld>,
     #[serde(default)]
     pub film: FilmDesc,

@@ -11,6 +11,7 @@
 //! rr_depth = 5
 //! samples_per_pixel = 16
 //! seed = 0
+//! hide_emitters = false        # true: camera rays see no emitter (Mitsuba's flag; `integrator::path`)
 //! [integrator.caustics]        # optional
 //! estimator = "mis"            # pt (default) | pm | mis
 //! photons = 200000             # optional
@@ -18,10 +19,10 @@
 //! max_radius = 0.1             # optional
 //!
 //! [sensor]                     # required (see `crate::camera`)
-//! type = "perspective"         # the only type, may be omitted
-//! fov = 39.3077                # degrees, required, in (0, 180)
+//! type = "perspective"         # perspective (default) | thinlens | orthographic (keys: `crate::camera`)
+//! fov = 39.3077                # degrees, in (0, 180); or focal_length = "50mm" (the default)
 //! fov_axis = "smaller"         # x (default) | y | diagonal | smaller | larger
-//! # near_clip, far_clip        (Mitsuba's; accepted only where they clip nothing, see `clip`)
+//! # near_clip, far_clip        (Mitsuba's; perspective: accepted only where they clip nothing, see `clip`)
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 256, 128] }   # default 768×576; crop optional
 //!

@@ -11,6 +11,7 @@
 //! rr_depth = 5              # Russian roulette starts at this depth (≥ 1)
 //! samples_per_pixel = 64    # ≥ 1 (default 16)
 //! seed = 0
+//! hide_emitters = false     # true: camera rays see no emitter (Mitsuba's `hide_emitters`)
 //! [integrator.caustics]     # optional
 //! estimator = "mis"         # pt (default) | pm | mis
 //! photons = 200000          # photons emitted per pass (> 0); absent: the integrator's default
@@ -29,6 +30,8 @@ pub mod defaults {
     /// Samples per pixel of a render without a time limit.
     pub const SAMPLES_PER_PIXEL: u32 = 16;
     pub const SEED: u64 = 0;
+    /// Camera rays see the emitters (Mitsuba's `hide_emitters = false`).
+    pub const HIDE_EMITTERS: bool = false;
     /// k of the k-NN density estimate.
     pub const KNN: u32 = 50;
     /// Samples per pixel of one pass of a time-limited render.
@@ -220,6 +223,9 @@ pub struct IntegratorSettings {
     pub rr_depth: u32,
     pub samples_per_pixel: u32,
     pub seed: u64,
+    /// Mitsuba's `hide_emitters`: a camera path whose ray passes through area emitters and that shows
+    /// nothing until it scatters (the rule: `integrator::path`, `PathTracer::hide_unscattered`).
+    pub hide_emitters: bool,
     pub caustics: CausticsSettings,
     /// The AOVs written beside the image (`integrator.aovs`, Mitsuba's `aov` integrator: [`super::aov`]);
     /// none by default.
@@ -242,6 +248,7 @@ impl Default for IntegratorSettings {
             rr_depth: defaults::RR_DEPTH,
             samples_per_pixel: defaults::SAMPLES_PER_PIXEL,
             seed: defaults::SEED,
+            hide_emitters: defaults::HIDE_EMITTERS,
             caustics: CausticsSettings::default(),
             aovs: super::aov::Aovs::default(),
         }

@@ -348,14 +348,6 @@ impl<'a> Converter<'a> {
                     shown(name),
                     el.label()
                 )));
-            } else if name == "hide_emitters" {
-                if value != Value::Boolean(false) {
-                    return Err(child.error(format!(
-                        "hide_emitters = true of {} is not supported (caustica's camera rays see the emitters)",
-                        el.label()
-                    )));
-                }
-                self.note_ignored(el, child, "false is caustica's behaviour");
             } else if max_depth.is_some() && name == "max_depth" {
                 return Err(child.error(format!("{} has no property \"max_depth\" (its depth is fixed)", el.label())));
             } else {

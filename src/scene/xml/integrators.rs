@@ -6,6 +6,11 @@
 //! and `stokes` are not. The rest are refused,
 //! unless the command line chose the estimator (`--estimator`), which replaces them.
 //!
+//! `hide_emitters` follows `path`'s rule for every type read as `path` (`integrator::path`). Mitsuba's
+//! `volpath` and `direct` have rules of their own (src/integrators/volpath.cpp, direct.cpp) that give the
+//! same image except on camera paths through a `null` surface or a `mask` hole (where `path` also drops
+//! what the path collected before it escapes, and shows an area emitter it scatters from).
+//!
 //! ```xml
 //! <integrator type="volpath"><integer name="max_depth" value="8"/></integrator>   <!-- read as path -->
 //! <integrator type="aov"><string name="aovs" value="nn:sh_normal"/><integrator type="path"/></integrator>

@@ -30,7 +30,9 @@
 //! **What is read.** `<default>`, `$name` in any attribute value, `<include>`, `id` and `<ref id>` (to
 //! BSDFs), `name` attributes of nested plugins (ignored: the nesting decides the role); `<transform>` with
 //! `translate`, `rotate`, `scale`, `matrix` (16 or 9 numbers) and `lookat`, applied in the order written;
-//! `<sensor type="perspective">` with `fov`, `fov_axis`, `near_clip`, `far_clip`; `<film type="hdrfilm">`
+//! `<sensor type="perspective">` with `fov` or `focal_length`, `fov_axis`, `near_clip`, `far_clip`;
+//! `thinlens` with these and `aperture_radius`, `focus_distance`; `orthographic` with `near_clip`,
+//! `far_clip` (`crate::camera`); `<film type="hdrfilm">`
 //! with `width`, `height`, `crop_offset_x/y`, `crop_width/height`; `<rfilter>` of every Mitsuba type with its
 //! properties (`box`, `tent` radius, `gaussian` stddev, `mitchell` B/C, `catmullrom`, `lanczos` lobes:
 //! `film::filter`); `<sampler>`
@@ -58,10 +60,10 @@
 //!
 //! **Differences from Mitsuba.** Spectrum plugins (`<spectrum type="blackbody">`, ...) are refused, as
 //! Mitsuba's RGB variants cannot render them (its spectral variants can; caustica renders in RGB). None in
-//! the film: a film without `<rfilter>` gets Mitsuba's default, the Gaussian of σ = 0.5. caustica's camera
-//! has no clip planes: a `near_clip`
-//! or `far_clip` is accepted only where it cuts no geometry (`build`), and an absent one is not Mitsuba's
-//! default (0.01 and 10⁴) but none at all.
+//! the film: a film without `<rfilter>` gets Mitsuba's default, the Gaussian of σ = 0.5. caustica's perspective
+//! camera has no clip planes: a `near_clip` or `far_clip` is accepted only where it cuts no geometry
+//! (`build`), and an absent one is not Mitsuba's default (0.01 and 10⁴) but none at all; `thinlens` and
+//! `orthographic` clip as Mitsuba does, with its defaults.
 //!
 //! **Errors.** Anything not supported — an element, a plugin type, a property, an attribute, a `$name`
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.

@@ -53,8 +53,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("shape", "linearcurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "sdfgrid", "a signed distance field", OUT_OF_SCOPE),
     ("emitter", "sunsky", "a sun and sky model", LATER_SHAPES),
-    ("sensor", "thinlens", "a thin-lens camera with depth of field", LATER_SHAPES),
-    ("sensor", "orthographic", "an orthographic camera", LATER_SHAPES),
     ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
     ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
     ("film", "specfilm", "a film of spectral channels", OUT_OF_SCOPE),
@@ -95,7 +93,12 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         "emitter" => plugins::keys(Role::Emitter, kind),
         "rfilter" => plugins::keys(Role::RFilter, kind),
         "texture" => plugins::keys(Role::Texture, kind),
-        "sensor" => (kind == "perspective").then(|| vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"]),
+        "sensor" => match kind {
+            "perspective" => Some(vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"]),
+            "thinlens" => Some(vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world", "aperture_radius", "focus_distance"]),
+            "orthographic" => Some(vec!["near_clip", "far_clip", "to_world"]),
+            _ => None,
+        },
         "film" => (kind == "hdrfilm")
             .then(|| vec!["width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height"]),
         "sampler" => SAMPLER_TYPES.contains(&kind).then(|| vec!["sample_count", "seed"]),

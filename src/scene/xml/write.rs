@@ -210,6 +210,10 @@ impl Writer {
                     self.line(&format!("<integer name=\"{k}\" value=\"{}\"/>", num(v).ok_or_else(|| format!("integrator.{k}"))?));
                 }
             }
+            if let Some(v) = t.get("hide_emitters") {
+                let hide = v.as_bool().ok_or_else(|| "integrator.hide_emitters".to_string())?;
+                self.line(&format!("<boolean name=\"hide_emitters\" value=\"{hide}\"/>"));
+            }
             if let Some(c) = t.get("caustics").and_then(Value::as_table) {
                 for (k, v) in c {
                     let line = match (k.as_str(), v) {
@@ -230,7 +234,8 @@ impl Writer {
     }
 
     fn sensor(&mut self, t: &Table, integrator: Option<&Table>) -> Result<()> {
-        self.open("<sensor type=\"perspective\">");
+        let kind = t.get("type").and_then(Value::as_str).unwrap_or("perspective");
+        self.open(&format!("<sensor type=\"{}\">", esc(kind)));
         self.body("sensor", t, &["film"])?;
         self.open("<sampler type=\"independent\">");
         let get = |k: &str| integrator.and_then(|i| i.get(k)).and_then(num);
