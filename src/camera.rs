@@ -58,6 +58,30 @@ pub enum FovAxis {
     Larger,
 }
 
+impl FovAxis {
+    /// The axis Mitsuba names `name` (`x`, `y`, `diagonal`, `smaller`, `larger`; any case, as Mitsuba).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<FovAxis> {
+        Some(match name.to_ascii_lowercase().as_str() {
+            "x" => FovAxis::X,
+            "y" => FovAxis::Y,
+            "diagonal" => FovAxis::Diagonal,
+            "smaller" => FovAxis::Smaller,
+            "larger" => FovAxis::Larger,
+            _ => return None,
+        })
+    }
+}
+
+/// The field of view (degrees) of a 35 mm equivalent focal length written as `"50mm"` or `"50"`, across
+/// the film's diagonal ([`FovAxis::Diagonal`]), as Mitsuba's `parse_fov` (src/render/sensor.cpp):
+/// `2·atan(√(36² + 24²) / 2f)`. `None` unless the length is a positive number.
+#[must_use]
+pub fn focal_length_fov(text: &str) -> Option<f32> {
+    let mm: f64 = text.strip_suffix("mm").unwrap_or(text).trim().parse().ok().filter(|f: &f64| f.is_finite() && *f > 0.0)?;
+    Some((2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees()) as f32)
+}
+
 /// Mitsuba's default near clip plane (`ProjectiveCamera`, src/render/sensor.cpp): thinlens and orthographic.
 pub const DEFAULT_NEAR_CLIP: f32 = 1e-2;
 /// Mitsuba's default far clip plane (`ProjectiveCamera`); also the thin lens's default `focus_distance`.
@@ -369,8 +393,10 @@ impl Camera {
 }
 
 /// tan of half the field of view along film x and y for a `w × h` film: `fov` on its axis, the other in
-/// proportion (tan_x / tan_y = w / h).
-fn tan_half(fov_deg: f32, fov_axis: FovAxis, w: f32, h: f32) -> Vec2 {
+/// proportion (tan_x / tan_y = w / h): Mitsuba's `parse_fov` with the film's aspect, then
+/// `perspective_projection`. The perspective camera's film, and a projector's (`emitter::projector`).
+#[must_use]
+pub fn tan_half(fov_deg: f32, fov_axis: FovAxis, w: f32, h: f32) -> Vec2 {
     let t = (0.5 * fov_deg.to_radians()).tan();
     let axis_is_x = match fov_axis {
         FovAxis::X => Some(true),

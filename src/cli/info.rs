@@ -49,6 +49,7 @@ fn light_kind(l: &Light) -> &'static str {
         Light::Env(_) => "envmap",
         Light::Constant { .. } => "constant",
         Light::Point(p) if p.spot().is_some() => "spot",
+        Light::Point(p) if p.projector_profile().is_some() => "projector",
         Light::Point(_) => "point",
         Light::Directional(_) => "directional",
     }

@@ -8,6 +8,7 @@
 //! | `constant` | `radiance` | a uniform environment |
 //! | `point` | `intensity`, `position` or `to_world` | a point light |
 //! | `spot` | `intensity`, `cutoff_angle`, `beam_width`, `to_world` | a point light with a beam profile |
+//! | `projector` | `irradiance` (a colour or a texture), `scale`, `fov`, `fov_axis`, `focal_length`, `to_world` | a point light with a textured frustum |
 //! | `directional` | `irradiance`, `direction` or `to_world` | a directional light |
 //!
 //! An emitter's `to_world` is its nested value ([`Props::take_nested`]): the scene reader turns it into a
@@ -19,10 +20,13 @@ mod constant;
 mod directional;
 mod envmap;
 mod point;
+mod projector;
 mod spot;
 
+pub use projector::Projector;
+
 use crate::light::Light;
-use crate::math::{Mat4, Vec3};
+use crate::math::{Mat3, Mat4, Vec3};
 use crate::props::{PropError, Props};
 
 /// An emitter type as the scene files name it; its nested value is its `to_world` matrix.
@@ -30,10 +34,13 @@ pub(crate) type Plugin = crate::props::Plugin<Emitter, Mat4>;
 
 /// Every emitter type.
 pub(crate) const PLUGINS: &[&Plugin] =
-    &[&area::PLUGIN, &envmap::PLUGIN, &constant::PLUGIN, &point::PLUGIN, &spot::PLUGIN, &directional::PLUGIN];
+    &[&area::PLUGIN, &envmap::PLUGIN, &constant::PLUGIN, &point::PLUGIN, &spot::PLUGIN, &projector::PLUGIN, &directional::PLUGIN];
 
 /// The emitter type attached to shapes (every other type stands alone).
 pub(crate) const AREA: &str = "area";
+
+/// The one stand-alone emitter type whose keys may be textures (its `irradiance`).
+pub(crate) const PROJECTOR: &str = "projector";
 
 /// An emitter as its file describes it.
 #[derive(Clone, Debug)]
@@ -45,6 +52,8 @@ pub enum Emitter {
     Env { filename: String, scale: f32, to_world: Mat4 },
     /// `constant`: the same radiance from every direction.
     Constant { radiance: Vec3 },
+    /// `projector`: its light once the scene reader has its texture ([`Projector::light`]).
+    Projector(Projector),
     /// `point`, `spot`, `directional`: the light itself; `None` when it emits nothing (left out of the scene,
     /// as every emitter of zero power is).
     Delta(Option<Light>),
@@ -68,6 +77,23 @@ fn either_or_to_world(p: &mut Props<'_, Mat4>, key: &str) -> Result<(Option<Vec3
         return Err(PropError::new(key, format!("give either `{key}` or `to_world`, not both (Mitsuba refuses both)")));
     }
     Ok((given, to_world))
+}
+
+/// The uniform scale k of `m` if it is a rotation (or mirror) times k: orthogonal columns of one length
+/// (relative tolerance 10⁻⁴). A spot or projector measures its beam's angles in its own frame, and a shear
+/// or a non-uniform scale would distort the beam; the message names the `kind` of emitter.
+fn similarity_scale(m: Mat3, kind: &str) -> Result<f32, String> {
+    let cols = [m.x_axis, m.y_axis, m.z_axis];
+    let len2 = cols.map(Vec3::length_squared);
+    let s2 = (len2[0] + len2[1] + len2[2]) / 3.0;
+    let tol = 1e-4 * s2;
+    let equal = len2.iter().all(|l| (l - s2).abs() <= 2.0 * tol);
+    let orthogonal = [(0, 1), (0, 2), (1, 2)].iter().all(|&(i, j)| cols[i].dot(cols[j]).abs() <= tol);
+    if s2 > 0.0 && s2.is_finite() && equal && orthogonal {
+        Ok(s2.sqrt())
+    } else {
+        Err(format!("a {kind}'s transform may rotate, mirror, scale uniformly and translate, but not shear or scale non-uniformly (its beam would be distorted)"))
+    }
 }
 
 #[cfg(test)]

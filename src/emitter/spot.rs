@@ -15,7 +15,7 @@
 //! to_world = { look_at = { origin = [0, 5, 0], target = [0, 0, 0], up = [0, 0, 1] } }
 //! ```
 
-use super::{power, Emitter, Plugin};
+use super::{power, similarity_scale, Emitter, Plugin};
 use crate::light::{Light, PointLight, SpotProfile};
 use crate::math::{Mat3, Mat4, Vec3};
 use crate::props::{PropError, Props};
@@ -44,25 +44,9 @@ fn build(mut p: Props<'_, Mat4>) -> Result<Emitter, PropError> {
         return Err(PropError::new("beam_width", format!("the beam width must be in [0, cutoff_angle = {cutoff}] degrees, got {beam}")));
     }
     let linear = Mat3::from_mat4(to_world);
-    check_similarity(linear).map_err(|m| PropError::new("to_world", m))?;
+    similarity_scale(linear, "spot").map_err(|m| PropError::new("to_world", m))?;
     let profile = SpotProfile::new(linear * Vec3::Z, cutoff, beam)
         .ok_or_else(|| PropError::new("to_world", "the transform maps the spot's axis +z to a zero vector"))?;
     let position = to_world.transform_point3(Vec3::ZERO);
     Ok(Emitter::Delta((intensity != Vec3::ZERO).then(|| Light::Point(PointLight::new(position, intensity, Some(profile))))))
-}
-
-/// `Ok` if `m` is a rotation (or mirror) times a uniform scale: orthogonal columns of one length
-/// (relative tolerance 10⁻⁴).
-fn check_similarity(m: Mat3) -> Result<(), String> {
-    let cols = [m.x_axis, m.y_axis, m.z_axis];
-    let len2 = cols.map(Vec3::length_squared);
-    let s2 = (len2[0] + len2[1] + len2[2]) / 3.0;
-    let tol = 1e-4 * s2;
-    let equal = len2.iter().all(|l| (l - s2).abs() <= 2.0 * tol);
-    let orthogonal = [(0, 1), (0, 2), (1, 2)].iter().all(|&(i, j)| cols[i].dot(cols[j]).abs() <= tol);
-    if s2 > 0.0 && s2.is_finite() && equal && orthogonal {
-        Ok(())
-    } else {
-        Err("a spot's transform may rotate, mirror, scale uniformly and translate, but not shear or scale non-uniformly (the beam would not be round)".into())
-    }
 }

@@ -1,22 +1,25 @@
-//! Delta lights (Mitsuba 3's `point`, `spot` and `directional` emitters): light from one point, or from
-//! one direction. No ray can hit them, so next-event estimation is their only eye-side technique (MIS
-//! weight 1, method.md §4.1) and their caustics come only from photons.
+//! Delta lights (Mitsuba 3's `point`, `spot`, `projector` and `directional` emitters): light from one
+//! point, or from one direction. No ray can hit them, so next-event estimation is their only eye-side
+//! technique (MIS weight 1, method.md §4.1) and their caustics come only from photons.
 //!
 //! - **point** (`point.cpp`): radiant intensity `I` (W/sr) in every direction; the radiance arriving at
 //!   distance r is `I/r²` along the line to the light.
 //! - **spot** (`spot.cpp`): a point light whose intensity is `I·falloff(θ)`, θ the angle to the spot's
 //!   axis (+z of its `to_world`): 1 up to `beam_width`, falling linearly in θ to 0 at `cutoff_angle`
 //!   (Mitsuba's `falloff_curve`: `(cutoff − θ)/(cutoff − beam_width)`), 0 beyond.
+//! - **projector** (`projector.cpp`): a point light whose intensity is `π·scale·k·T(uv)/cos³θ` inside a
+//!   perspective frustum, T a texture on its film (module `projector`).
 //! - **directional** (`directional.cpp`): irradiance `E` (W/m² on a surface facing the light) arriving
 //!   along one direction from infinitely far away.
 //!
 //! Power (method.md §2, luminance): point `4π·Y(I)`; spot `2π·Y(I)·∫₀^c falloff(θ) sin θ dθ =
 //! 2π·Y(I)·(1 − (sin c − sin b)/(c − b))` (c the cutoff, b the beam width, both in radians; `1 − cos c`
-//! when b = c); directional `π·R²·Y(E)`, R the scene's bounding radius (the disk of a distant light that
-//! covers the scene, as for environment maps).
+//! when b = c); projector `Y(π·scale·k·A·mean(T))`; directional `π·R²·Y(E)`, R the scene's bounding
+//! radius (the disk of a distant light that covers the scene, as for environment maps).
 
 use std::f32::consts::PI;
 
+use super::projector::{Frustum, ProjectorProfile};
 use super::{disk_emission, EmissionSample, LightSample};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::sampling::warp::{square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf_w, uniform_sphere_pdf_w};
@@ -89,20 +92,33 @@ impl SpotProfile {
     }
 }
 
-/// A point light, optionally a spot.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PointLight {
-    position: Vec3,
-    /// Radiant intensity (W/sr) at the centre of the beam (everywhere for a point light).
-    intensity: Vec3,
-    spot: Option<SpotProfile>,
+/// How a point light's intensity varies with direction.
+#[derive(Clone, Debug)]
+enum Profile {
+    /// The same in every direction (`point`).
+    Uniform,
+    Spot(SpotProfile),
+    Projector(Box<ProjectorProfile>),
 }
 
-/// How photon directions leave a point light (method.md §2): uniform in a cone, or over the sphere.
+/// A point light: a point, a spot or a projector.
+#[derive(Clone, Debug)]
+pub struct PointLight {
+    position: Vec3,
+    /// Radiant intensity (W/sr) at the centre of a spot's beam, everywhere for a point light; a
+    /// projector's factor `π·scale·k`, times its profile's `T(uv)/cos³θ`.
+    intensity: Vec3,
+    profile: Profile,
+}
+
+/// How photon directions leave a point light (method.md §2): uniform in a cone, over the sphere, or
+/// through a projector's film (a film point uniform on it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PointDirection {
     Cone { axis: Vec3, cos_max: f32 },
     Sphere,
+    /// A film point uniform on a projector's film ([`Frustum::sample_direction`]).
+    Frustum(Frustum),
 }
 
 impl PointDirection {
@@ -118,14 +134,17 @@ impl PointDirection {
                 let w = square_to_uniform_sphere(u);
                 (w, uniform_sphere_pdf_w(w))
             }
+            PointDirection::Frustum(f) => f.sample_direction(u),
         }
     }
 
-    /// `cos` of the half-angle (−1 for the sphere): the larger, the smaller the solid angle.
-    fn cos_max(&self) -> f32 {
+    /// The solid angle the rule samples: the smaller, the fewer photons are lost.
+    #[must_use]
+    pub fn solid_angle(&self) -> f32 {
         match *self {
-            PointDirection::Cone { cos_max, .. } => cos_max,
-            PointDirection::Sphere => -1.0,
+            PointDirection::Cone { cos_max, .. } => 2.0 * PI * (1.0 - cos_max),
+            PointDirection::Sphere => 4.0 * PI,
+            PointDirection::Frustum(f) => f.solid_angle(),
         }
     }
 }
@@ -133,7 +152,14 @@ impl PointDirection {
 impl PointLight {
     #[must_use]
     pub fn new(position: Vec3, intensity: Vec3, spot: Option<SpotProfile>) -> Self {
-        Self { position, intensity, spot }
+        Self { position, intensity, profile: spot.map_or(Profile::Uniform, Profile::Spot) }
+    }
+
+    /// A projector at `position` whose `to_world` scales by k, with `scale·k` (Mitsuba's `scale` times
+    /// that k) per channel: its intensity is `π·scale·k·T(uv)/cos³θ` (module `projector`).
+    #[must_use]
+    pub fn projector(position: Vec3, scale_k: Vec3, profile: ProjectorProfile) -> Self {
+        Self { position, intensity: PI * scale_k, profile: Profile::Projector(Box::new(profile)) }
     }
 
     #[must_use]
@@ -148,23 +174,49 @@ impl PointLight {
 
     #[must_use]
     pub fn spot(&self) -> Option<&SpotProfile> {
-        self.spot.as_ref()
-    }
-
-    /// Radiant intensity leaving along the unit direction `w`: `I·falloff` (W/sr).
-    #[must_use]
-    pub fn intensity_toward(&self, w: Vec3) -> Vec3 {
-        match &self.spot {
-            None => self.intensity,
-            Some(s) => self.intensity * s.falloff(w),
+        match &self.profile {
+            Profile::Spot(s) => Some(s),
+            _ => None,
         }
     }
 
-    /// Power Φ (luminance): `Y(I)·∫falloff dω` (4π for a point light).
+    #[must_use]
+    pub fn projector_profile(&self) -> Option<&ProjectorProfile> {
+        match &self.profile {
+            Profile::Projector(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Radiant intensity leaving along the unit direction `w` (W/sr): `I`, `I·falloff` for a spot,
+    /// `I·T(uv)/cos³θ` for a projector.
+    #[must_use]
+    pub fn intensity_toward(&self, w: Vec3) -> Vec3 {
+        match &self.profile {
+            Profile::Uniform => self.intensity,
+            Profile::Spot(s) => self.intensity * s.falloff(w),
+            Profile::Projector(p) => self.intensity * p.weight(w),
+        }
+    }
+
+    /// Power Φ (luminance): `Y(∫I(ω) dω)` (`4π·Y(I)` for a point light).
     #[must_use]
     pub fn power(&self) -> f32 {
-        let solid_angle = self.spot.as_ref().map_or(4.0 * PI, SpotProfile::solid_angle_integral);
-        super::luminance(self.intensity) * solid_angle
+        match &self.profile {
+            Profile::Uniform => super::luminance(self.intensity) * 4.0 * PI,
+            Profile::Spot(s) => super::luminance(self.intensity) * s.solid_angle_integral(),
+            Profile::Projector(p) => super::luminance(self.intensity * p.solid_angle_integral()),
+        }
+    }
+
+    /// The narrowest rule that contains every direction the light emits in: a spot's beam cone, a
+    /// projector's frustum, `None` for a point light.
+    fn beam(&self) -> Option<PointDirection> {
+        match &self.profile {
+            Profile::Uniform => None,
+            Profile::Spot(s) => Some(PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff }),
+            Profile::Projector(p) => Some(PointDirection::Frustum(*p.frustum())),
+        }
     }
 
     /// NEE: the light seen from `p_ref`, `li = I(ω)/r²`, `pdf_w = 1` (the one point, chosen with
@@ -187,8 +239,9 @@ impl PointLight {
 
     /// The direction rule of photon emission toward a sphere (`center`, `radius`), method.md §2: the cone
     /// the sphere subtends from the light when the light is outside it, else the sphere of directions; a
-    /// spot's beam cone instead when that is narrower. Both cones contain every direction that leaves the
-    /// light inside the beam toward the sphere, so either one samples all of them.
+    /// spot's beam cone or a projector's frustum instead when that has the smaller solid angle. Each
+    /// contains every direction that leaves the light inside its beam toward the sphere, so either one
+    /// samples all of them.
     #[must_use]
     pub fn direction_toward(&self, center: Vec3, radius: f32) -> PointDirection {
         let d = center - self.position;
@@ -199,8 +252,8 @@ impl PointLight {
         } else {
             PointDirection::Sphere
         };
-        match &self.spot {
-            Some(s) if s.cos_cutoff > toward.cos_max() => PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff },
+        match self.beam() {
+            Some(beam) if beam.solid_angle() < toward.solid_angle() => beam,
             _ => toward,
         }
     }
@@ -214,14 +267,11 @@ impl PointLight {
         self.sample_le_with(self.direction_toward(center, radius), u_dir)
     }
 
-    /// Unaimed emission (tests, `Light::sample_le`): the beam cone of a spot, the sphere for a point light.
+    /// Unaimed emission (tests, `Light::sample_le`): the beam cone of a spot, the frustum of a projector,
+    /// the sphere for a point light.
     #[must_use]
     pub fn sample_le(&self, u_dir: Vec2) -> Option<EmissionSample> {
-        let rule = match &self.spot {
-            Some(s) => PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff },
-            None => PointDirection::Sphere,
-        };
-        self.sample_le_with(rule, u_dir)
+        self.sample_le_with(self.beam().unwrap_or(PointDirection::Sphere), u_dir)
     }
 
     fn sample_le_with(&self, rule: PointDirection, u_dir: Vec2) -> Option<EmissionSample> {

@@ -1,8 +1,8 @@
 //! Light sources and their sampling: emissive triangles ([`AreaLight`], Mitsuba's `area` emitter), the
 //! equirectangular environment map ([`EnvMap`], Mitsuba's `envmap`), the constant environment
-//! ([`Light::Constant`], Mitsuba's `constant`) and the delta lights ([`PointLight`]: `point` and `spot`;
-//! [`DirectionalLight`]: `directional`; module `delta`); [`LightSet`] holds them all and chooses one ∝
-//! power for next-event estimation (NEE) and for photon emission.
+//! ([`Light::Constant`], Mitsuba's `constant`) and the delta lights ([`PointLight`]: `point`, `spot` and
+//! `projector`, module `projector`; [`DirectionalLight`]: `directional`; module `delta`); [`LightSet`]
+//! holds them all and chooses one ∝ power for next-event estimation (NEE) and for photon emission.
 //!
 //! Measures are in the names: `pdf_w` per steradian, `pdf_a` per unit area. Every `pdf_li_*` is computed by
 //! the same function the matching `sample_li` uses, so the two always agree (MIS needs this).
@@ -14,6 +14,7 @@
 pub mod area;
 pub mod delta;
 pub mod env;
+pub mod projector;
 pub mod set;
 
 #[cfg(test)]
@@ -25,11 +26,14 @@ mod tests_textured;
 #[cfg(test)]
 mod tests_delta;
 #[cfg(test)]
+mod tests_projector;
+#[cfg(test)]
 mod tests_env;
 
 pub use area::AreaLight;
 pub use delta::{DirectionalLight, PointLight, SpotProfile};
 pub use env::EnvMap;
+pub use projector::{Frustum, ProjectorProfile};
 pub use set::LightSet;
 
 use crate::math::{Frame, Vec2, Vec3};
@@ -133,7 +137,7 @@ pub enum Light {
     Constant {
         radiance: Vec3,
     },
-    /// Mitsuba's `point` and `spot` emitters (a delta position).
+    /// Mitsuba's `point`, `spot` and `projector` emitters (a delta position).
     Point(PointLight),
     /// Mitsuba's `directional` emitter (a delta direction).
     Directional(DirectionalLight),

@@ -119,6 +119,7 @@ fn aimed_point_and_spot_directions_pass_chi2() {
             PointDirection::Cone { axis, cos_max } if axis.dot(w) >= cos_max - 4.0 * f32::EPSILON => 1.0 / (2.0 * PI * (1.0 - cos_max)),
             PointDirection::Cone { .. } => 0.0,
             PointDirection::Sphere => 0.25 / PI,
+            PointDirection::Frustum(_) => unreachable!("no projector here"),
         };
         let out = test.run(|s| Some(rule.sample(s.next_2d())), pdf);
         eprintln!("{name}: {out}");

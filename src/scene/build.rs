@@ -67,6 +67,8 @@ enum EmitterPlan {
     },
     /// A point, spot or directional light (no file to load); `None` when it emits nothing.
     Delta(Option<Light>),
+    /// A projector and the texture it projects (its `irradiance`).
+    Projector(emitter::Projector, Texture),
 }
 
 /// Parses and builds a TOML scene; `name` is the file name used in errors, `base_dir` resolves relative paths.
@@ -117,7 +119,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     }
     let mut emitter_plans = Vec::with_capacity(file.emitter.len());
     for (i, emitter) in file.emitter.iter().enumerate() {
-        emitter_plans.push(plan_emitter(ctx, &join_index("emitter", i), emitter, base_dir)?);
+        emitter_plans.push(plan_emitter(ctx, &join_index("emitter", i), emitter, base_dir, &mut materials)?);
     }
     let (mut materials, mut textures) = materials.finish(ctx)?;
     let mut attributes = SceneAttributes::new(&materials, &mut textures);
@@ -128,7 +130,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         .filter_map(|s| Some((join_key(&s.key, "filename"), base_dir.join(s.shape.filename()?))))
         .chain(emitter_plans.iter().filter_map(|e| match e {
             EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path.clone())),
-            EmitterPlan::Constant { .. } | EmitterPlan::Delta(_) => None,
+            EmitterPlan::Constant { .. } | EmitterPlan::Delta(_) | EmitterPlan::Projector(..) => None,
         }));
     for (key, path) in files {
         if !path.exists() {
@@ -208,6 +210,7 @@ fn build_described(text: &str, ctx: &ErrorContext, base_dir: &Path, name: &Path)
                 }
             }
             EmitterPlan::Delta(light) => lights.extend(light),
+            EmitterPlan::Projector(projector, texture) => lights.extend(projector.light(texture)),
         }
     }
     let bounds = mesh.bounds();
@@ -380,8 +383,8 @@ fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<(Projection, &'stati
 }
 
 /// The sensor's field of view in degrees, its axis, and the key it came from: `fov` (with `fov_axis`), or
-/// else the 35 mm equivalent `focal_length` (Mitsuba's default "50mm") across the film's diagonal, as
-/// Mitsuba's `parse_fov` (src/render/sensor.cpp): `2·atan(√(36² + 24²) / 2f)`.
+/// else the 35 mm equivalent `focal_length` (Mitsuba's default "50mm") across the film's diagonal
+/// ([`crate::camera::focal_length_fov`]).
 fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'static str), SceneError> {
     const KEY: &str = "sensor.focal_length";
     match (s.fov, &s.focal_length) {
@@ -389,16 +392,9 @@ fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'
         (Some(fov), None) => Ok((fov, s.fov_axis, "sensor.fov")),
         (None, focal_length) => {
             let text = focal_length.as_deref().unwrap_or("50mm");
-            let mm: f64 = text
-                .strip_suffix("mm")
-                .unwrap_or(text)
-                .trim()
-                .parse()
-                .ok()
-                .filter(|f: &f64| f.is_finite() && *f > 0.0)
+            let fov = crate::camera::focal_length_fov(text)
                 .ok_or_else(|| ctx.key_error(KEY, format!("{text:?} is not a focal length (a positive number of millimetres, \"50mm\")")))?;
-            let fov = 2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees();
-            Ok((fov as f32, FovAxis::Diagonal, KEY))
+            Ok((fov, FovAxis::Diagonal, KEY))
         }
     }
 }
@@ -454,13 +450,24 @@ fn area_emitter(ctx: &ErrorContext, key: &str, table: &toml::Table, materials: &
     }
 }
 
-/// A top-level emitter's table at `key` → its plan (`crate::emitter`; its `to_world` read here).
-fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path) -> Result<EmitterPlan, SceneError> {
+/// A top-level emitter's table at `key` → its plan (`crate::emitter`; its `to_world` read here). A
+/// projector's `irradiance` may be a texture, resolved as an area emitter's `radiance` is.
+fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, materials: &mut Materials) -> Result<EmitterPlan, SceneError> {
     if d.kind == emitter::AREA {
         let message = "an `area` emitter is attached to a shape: `emitter = { type = \"area\", … }` in its [[shape]] (in XML, inside its <shape>)";
         return Err(ctx.key_error(&join_key(key, "type"), message));
     }
-    let built = plugins::build(ctx, key, Role::Emitter, emitter::PLUGINS, d, |at, v| to_world_value(ctx, at, v))?;
+    let mut texture = None;
+    let built = if d.kind == emitter::PROJECTOR {
+        plugins::build_textured(ctx, key, Role::Emitter, emitter::PLUGINS, d, |at, v| to_world_value(ctx, at, v), |at, _, v| {
+            let t = materials.texture(ctx, at, v)?;
+            let summary = t.summary();
+            texture = Some(t);
+            Ok(summary)
+        })?
+    } else {
+        plugins::build(ctx, key, Role::Emitter, emitter::PLUGINS, d, |at, v| to_world_value(ctx, at, v))?
+    };
     Ok(match built {
         Emitter::Env { filename, scale, to_world } => EmitterPlan::Env {
             key: key.to_string(),
@@ -470,6 +477,10 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path) 
         },
         Emitter::Constant { radiance } => EmitterPlan::Constant { radiance },
         Emitter::Delta(light) => EmitterPlan::Delta(light),
+        Emitter::Projector(p) => {
+            let texture = texture.unwrap_or(Texture::Constant(p.irradiance));
+            EmitterPlan::Projector(p, texture)
+        }
         Emitter::Area { .. } => unreachable!("refused above"),
     })
 }

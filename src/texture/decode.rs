@@ -1,6 +1,7 @@
 //! Reading an image file into its samples as the file stores them (8- or 16-bit integers, half or single
 //! floats), before any colour decoding: what Mitsuba 3.9.1's `Bitmap` constructor reads
-//! (src/core/bitmap.cpp: `read_png`, `read_jpeg`, `read_exr`, `read_rgbe`, `read_pfm`). The format is
+//! (src/core/bitmap.cpp: `read_png`, `read_jpeg`, `read_exr`, `read_rgbe`, `read_pfm`, `read_bmp`: module
+//! `bmp`). The format is
 //! recognised by the file's first bytes, as `Bitmap::detect_file_format` does (not by its name).
 //!
 //! The header is read first and its size passed to a budget check before the pixels are allocated, so a
@@ -22,6 +23,8 @@ pub enum FileFormat {
     Rgbe,
     /// Portable float map (`PF` colour, `Pf` grey).
     Pfm,
+    /// Windows bitmap (`BM`), uncompressed.
+    Bmp,
 }
 
 impl FileFormat {
@@ -34,6 +37,7 @@ impl FileFormat {
             FileFormat::OpenExr => "OpenEXR",
             FileFormat::Rgbe => "Radiance HDR",
             FileFormat::Pfm => "PFM",
+            FileFormat::Bmp => "BMP",
         }
     }
 
@@ -45,6 +49,7 @@ impl FileFormat {
             [0x76, 0x2f, 0x31, 0x01, ..] => Some(FileFormat::OpenExr),
             [b'#', b'?', ..] => Some(FileFormat::Rgbe),
             [b'P', b'F' | b'f', ..] => Some(FileFormat::Pfm),
+            [b'B', b'M', ..] => Some(FileFormat::Bmp),
             _ => None,
         }
     }
@@ -132,6 +137,7 @@ pub(super) fn read(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), Te
         FileFormat::Rgbe => read_rgbe(path, budget),
         FileFormat::OpenExr => read_exr(path, budget),
         FileFormat::Pfm => read_pfm(path, budget),
+        FileFormat::Bmp => super::bmp::read_bmp(path, budget),
     }?;
     // What the texels are made from relies on this; a decoder that broke it is an error, not a panic.
     if d.samples.len() as u64 != u64::from(d.width) * u64::from(d.height) * d.channels as u64 {

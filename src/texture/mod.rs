@@ -26,10 +26,11 @@
 //! rows ([`TextureImage`]), the form a lookup reads fastest; what Mitsuba's storage precision (`format`)
 //! does to the values (half precision for 16-bit and half-float sources) is applied at load, so lookups
 //! give Mitsuba's numbers. Formats: PNG (8/16-bit; grey, grey+alpha, RGB, RGBA, palette), JPEG, OpenEXR
-//! (R,G,B[,A] or Y[,A] channels, half or float), Radiance HDR and PFM, recognised by their first bytes as
-//! Mitsuba does. Alpha is dropped (Mitsuba's RGB variants store `Y` or `RGB`, `target_pixel_format`).
+//! (R,G,B[,A] or Y[,A] channels, half or float), Radiance HDR, PFM and uncompressed BMP (`bmp`),
+//! recognised by their first bytes as Mitsuba does. Alpha is dropped (Mitsuba's RGB variants store `Y` or `RGB`, `target_pixel_format`).
 
 mod bitmap;
+mod bmp;
 mod cache;
 mod checkerboard;
 mod decode;
@@ -201,6 +202,15 @@ impl Texture {
             Texture::Bitmap(b) => b.image().min(),
             Texture::Checkerboard(c) => c.color0.min(c.color1),
             Texture::MeshAttribute(a) => a.summary_before_load().min,
+        }
+    }
+
+    /// Width and height in texels (Mitsuba's `resolution()`): a bitmap's image's, 1 × 1 for the others.
+    #[must_use]
+    pub fn resolution(&self) -> (u32, u32) {
+        match self {
+            Texture::Bitmap(b) => (b.image().width(), b.image().height()),
+            Texture::Constant(_) | Texture::Checkerboard(_) => (1, 1),
         }
     }
 

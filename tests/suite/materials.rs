@@ -291,3 +291,17 @@ fn principled_mis_matches_mitsuba() {
     // The glass cube's caustic on the principled floor, gathered from photons.
     matches_mitsuba("principled", Estimator::Mis, 64);
 }
+
+#[test]
+fn projector_pt_matches_mitsuba() {
+    // Mitsuba's projector: NEE reads the texture where the point projects onto its film, times
+    // π·scale·k/(z²·cos θ); a bitmap's aspect sets the film, a focal length its field of view.
+    matches_mitsuba("projector", Estimator::Pt, 512);
+}
+
+#[test]
+fn projector_mis_matches_mitsuba() {
+    // The photon pass with projectors in the light set: their photons (through the film or the cone toward
+    // the glass sphere) carry their intensity; the glass sphere's caustic is the area light's.
+    matches_mitsuba("projector", Estimator::Mis, 64);
+}

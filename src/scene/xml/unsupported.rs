@@ -52,7 +52,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "linearcurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "sdfgrid", "a signed distance field", OUT_OF_SCOPE),
-    ("emitter", "projector", "a projector light", LATER_SHAPES),
     ("emitter", "sunsky", "a sun and sky model", LATER_SHAPES),
     ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
     ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
@@ -121,8 +120,8 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
                 push(found, child, plugins::not_applicable(&cut(name), tag, &cut(kind), &keys));
             }
         } else {
-            // Textures go on BSDF properties and on an area emitter's radiance.
-            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && kind == "area") {
+            // Textures go on BSDF properties, an area emitter's radiance and a projector's irradiance.
+            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && (kind == "area" || kind == "projector")) {
                 push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
                 continue;
             }
