@@ -210,7 +210,7 @@ impl Texture {
     pub fn resolution(&self) -> (u32, u32) {
         match self {
             Texture::Bitmap(b) => (b.image().width(), b.image().height()),
-            Texture::Constant(_) | Texture::Checkerboard(_) => (1, 1),
+            Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => (1, 1),
         }
     }
 
