@@ -33,6 +33,24 @@ pub enum ImageError {
     TooLarge { path: PathBuf, width: usize, height: usize, channels: usize, bytes: u64, limit: u64 },
     #[error("{path}: cannot serialise as JSON: {source}")]
     Json { path: PathBuf, source: serde_json::Error },
+    /// A corrupt OpenEXR chunk table ([`super::exr_scan`]).
+    #[error("{path}: a corrupt OpenEXR file: {message}")]
+    Chunks { path: PathBuf, message: String },
+}
+
+impl ImageError {
+    /// What is wrong, without the file's name (for readers whose own error names it).
+    #[must_use]
+    pub fn reason(&self) -> String {
+        match self {
+            ImageError::Io { source, .. } => source.to_string(),
+            ImageError::Exr { source, .. } => source.to_string(),
+            ImageError::Png { source, .. } => source.to_string(),
+            ImageError::Json { source, .. } => source.to_string(),
+            ImageError::Chunks { message, .. } => message.clone(),
+            e => e.to_string(),
+        }
+    }
 }
 
 /// The tone curve applied (after exposure) before the sRGB encoding of [`write_png`].
@@ -284,13 +302,13 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
     Image::from_pixels(w, h, pixels).ok_or_else(size_err)
 }
 
-/// Reads the header of the EXR at `path` and refuses a layer whose pixels, at `channels` f32 values each
+/// Scans the header and chunk table of the EXR at `path` ([`super::exr_scan::scan_exr`]) and refuses a layer whose pixels, at `channels` f32 values each
 /// (what the reader will allocate), exceed the largest film ([`crate::camera::MAX_FILM_PIXELS`]) or the
 /// memory this process may use ([`crate::sys::memory_bound`]: under `ulimit -v 2000000` the fuzzer found a
 /// header asking for 9.7 GB that passed the physical-memory check and aborted the allocation): a corrupt header must be an error, not an allocation that aborts the process (found by
 /// `tests/suite/fuzz.rs`: a mutated header asked for 34 GB).
 pub fn check_exr_size(path: &Path, channels: usize) -> Result<(), ImageError> {
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|source| ImageError::Exr { path: path.to_owned(), source })?;
+    let meta = super::exr_scan::scan_exr(path)?;
     // The memory this process may use: physical, its cgroup's limit, or its address-space limit.
     let memory = crate::sys::memory_bound().map_or(u64::MAX, |(bytes, _)| bytes);
     for header in &meta.headers {

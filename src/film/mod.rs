@@ -35,6 +35,7 @@
 //!   (rounds) may differ in the AOVs' last bits.
 
 pub mod exact;
+pub mod exr_scan;
 pub mod filter;
 mod image;
 pub mod io;

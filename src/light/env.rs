@@ -337,6 +337,11 @@ fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>), LightError> {
         path: path.to_path_buf(),
         source,
     })?;
+    // The chunk table first: a corrupt chunk size must not reach the decoder's allocation.
+    crate::film::exr_scan::scan_exr(path).map_err(|e| match e {
+        crate::film::ImageError::Io { source, .. } => LightError::Io { path: path.to_path_buf(), source },
+        e => LightError::Decode { path: path.to_path_buf(), message: e.reason() },
+    })?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -336,7 +336,11 @@ fn read_exr(path: &Path, budget: &mut dyn FnMut(&Header) -> Result<(), TextureEr
         e => TextureError::Decode { path: path.to_path_buf(), format: FileFormat::OpenExr, message: e.to_string() },
     };
     let unsupported = |what: String| TextureError::Unsupported { path: path.to_path_buf(), what };
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_err)?;
+    // The header, and the chunk table checked before the decoder allocates a chunk's declared size.
+    let meta = crate::film::exr_scan::scan_exr(path).map_err(|e| match e {
+        crate::film::ImageError::Io { source, .. } => TextureError::Io { path: path.to_path_buf(), source },
+        e => TextureError::Decode { path: path.to_path_buf(), format: FileFormat::OpenExr, message: e.reason() },
+    })?;
     let header = meta.headers.first().ok_or_else(|| unsupported("the file has no image part".into()))?;
     if header.deep {
         return Err(unsupported("deep OpenEXR data is not an image a texture can read".into()));

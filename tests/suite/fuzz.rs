@@ -1,6 +1,7 @@
 //! Fuzzing of every reader of outside input (issues 13 §4 and 40 §6): the scene readers (TOML and Mitsuba
-//! XML, with its includes), the meshes (OBJ, PLY, PLY.gz, Mitsuba `serialized`), the images (EXR, HDR) and
-//! `merge`'s part files (partial-film EXR). A seeded mutation fuzzer (no extra dependency, deterministic):
+//! XML, with its includes), the meshes (OBJ, PLY, PLY.gz, Mitsuba `serialized`), the images (EXR, HDR),
+//! `merge`'s part files (partial-film EXR) and the textures (PNG, JPEG, OpenEXR, Radiance HDR and PFM, through
+//! `texture::ImageCache`, which recognises the format by the first bytes). A seeded mutation fuzzer (no extra dependency, deterministic):
 //! input k of a reader is its k-th kept corpus file, then round k − (corpus size): a seed input (a shipped
 //! scene or mesh, or a small file made here) with 1–8 random byte-level mutations (bit flips, interesting
 //! bytes, insertions, deletions, duplicated and truncated ranges, for text also digit runs and extreme
@@ -36,6 +37,7 @@ use caustica::mesh::load_mesh;
 use caustica::mesh::serialized::load_serialized;
 use caustica::render::part::read_part;
 use caustica::scene::Scene;
+use caustica::texture::{ImageCache, StorageFormat};
 
 const ROUNDS_IN_TESTS: u64 = 300;
 /// An input without an answer after this long is a hang (the slowest valid input takes well under a second).
@@ -164,6 +166,38 @@ fn exr(dir: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap()
 }
 
+/// Small texture images made here, beside the shipped ones: formats and layouts the shipped seeds lack (a
+/// grey JPEG, a run-length encoded Radiance HDR, a big-endian PFM, a scan-line ZIP and a tiled, mip-mapped
+/// half-float OpenEXR).
+fn generated_textures(dir: &Path) -> Vec<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut jpeg = Vec::new();
+    let grey: Vec<u8> = (0..6 * 5).map(|i| (i * 37 % 256) as u8).collect();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 90).write_image(&grey, 6, 5, image::ExtendedColorType::L8).unwrap();
+    let mut hdr = Vec::new();
+    let rgb: Vec<image::Rgb<f32>> = (0..16 * 3).map(|i| image::Rgb([i as f32 * 0.25, 1.0, (i % 5) as f32])).collect();
+    image::codecs::hdr::HdrEncoder::new(&mut hdr).encode(&rgb, 16, 3).unwrap();
+    let mut pfm = b"PF\n3 2\n1.0\n".to_vec();
+    for i in 0..3 * 2 * 3 {
+        pfm.extend_from_slice(&(i as f32 * 0.5).to_be_bytes());
+    }
+    let tiled = {
+        use exr::prelude::*;
+        let size = Vec2(9, 7);
+        let levels: Vec<_> = exr::meta::mip_map_levels(exr::math::RoundingMode::Down, size).collect();
+        let channel = |name: &str, k: f32| {
+            let data = levels.iter().map(|(_, s)| FlatSamples::F16((0..s.area()).map(|i| f16::from_f32(i as f32 * k)).collect())).collect();
+            AnyChannel::new(name, Levels::Mip { level_data: data, rounding_mode: exr::math::RoundingMode::Down })
+        };
+        let channels = AnyChannels::sort(vec![channel("R", 0.5), channel("G", 0.25), channel("B", 1.0), channel("A", 0.0)].into());
+        let encoding = Encoding { compression: Compression::RLE, blocks: Blocks::Tiles(Vec2(4, 4)), line_order: LineOrder::Increasing };
+        let path = dir.join("seed-tiled.exr");
+        Image::from_layer(Layer::new(size, LayerAttributes::default(), encoding, channels)).write().to_file(&path).unwrap();
+        std::fs::read(path).unwrap()
+    };
+    vec![jpeg, hdr, pfm, exr(dir), tiled]
+}
+
 fn named(path: &Path, e: impl std::fmt::Display) -> String {
     let msg = e.to_string();
     let name = path.file_name().unwrap().to_string_lossy().into_owned();
@@ -246,6 +280,22 @@ fn targets(dir: &Path) -> Vec<Target> {
             seeds: vec![part(dir)],
             text: false,
             read: |p| read_part(p).map(|_| ()).map_err(|e| named(p, e)),
+        },
+        Target {
+            name: "texture",
+            ext: "tex",
+            seeds: [
+                read_all("tests/data/materials/textures", &["emitter.pfm", "height.png", "normals.png", "pattern.png"]),
+                read_all("tests/data/textures", &[
+                    "column.png", "grey.pfm", "grey16.png", "half.exr", "palette.png", "rgb.pfm", "rgb16.png", "rgb8.jpg", "rgb8.png",
+                    "rgba-float.exr", "rgba8.png", "rgbe.hdr", "y-float.exr", "ya8.png",
+                ]),
+                generated_textures(dir),
+            ]
+            .concat(),
+            text: false,
+            // A fresh cache per input, its limit half the child's address space (as a render's).
+            read: |p| ImageCache::default().load(p, false, StorageFormat::Auto).map(|_| ()).map_err(|e| named(p, e)),
         },
         Target {
             name: "hdr",
