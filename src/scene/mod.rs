@@ -260,8 +260,10 @@ impl Scene {
         params: &BTreeMap<String, String>,
         options: xml::ConvertOptions,
     ) -> Result<Scene, SceneError> {
-        let (description, places, notes) = xml::read_str(text, name_for_errors, base_dir, params, options)?;
-        let mut scene = build::build_xml_scene(&description, places, base_dir, name_for_errors)?;
+        let read = || xml::read_str(text, name_for_errors, base_dir, params, options);
+        let (description, places, notes) = read()?;
+        let again = || read().map(|(description, places, _)| (description, places));
+        let mut scene = build::build_xml_scene(description, places, again, base_dir, name_for_errors)?;
         scene.notes = notes;
         Ok(scene)
     }

@@ -24,27 +24,34 @@ pub(crate) struct SpanIndex {
     line_starts: Vec<usize>,
 }
 
-/// `name` as it would be written in a key path: bare if it is a bare TOML key, quoted otherwise.
-pub(crate) fn key_segment(name: &str) -> String {
-    if !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
-        name.to_string()
+/// Appends `name` as it would be written in a key path: bare if it is a bare TOML key, quoted otherwise.
+fn push_segment(s: &mut String, name: &str) {
+    if !name.is_empty() && name.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'_' || c == b'-') {
+        s.push_str(name);
     } else {
-        format!("{name:?}")
+        use std::fmt::Write;
+        let _ = write!(s, "{name:?}");
     }
 }
 
-/// Joins a parent path and a key (`a` + `b` → `a.b`; `` + `b` → `b`).
+/// Joins a parent path and a key (`a` + `b` → `a.b`; `` + `b` → `b`). (One allocation: the XML reader
+/// makes a path for every key of every element.)
 pub(crate) fn join_key(parent: &str, key: &str) -> String {
-    if parent.is_empty() {
-        key_segment(key)
-    } else {
-        format!("{parent}.{}", key_segment(key))
+    let mut s = String::with_capacity(parent.len() + 1 + key.len());
+    if !parent.is_empty() {
+        s.push_str(parent);
+        s.push('.');
     }
+    push_segment(&mut s, key);
+    s
 }
 
 /// Joins a parent path and an array index (`a` + 3 → `a[3]`).
 pub(crate) fn join_index(parent: &str, index: usize) -> String {
-    format!("{parent}[{index}]")
+    use std::fmt::Write;
+    let mut s = String::with_capacity(parent.len() + 8);
+    let _ = write!(s, "{parent}[{index}]");
+    s
 }
 
 impl SpanIndex {

@@ -267,8 +267,8 @@ impl<'a> Converter<'a> {
     fn plugin_table(&mut self, el: &Element, key: &str) -> Result<Table, SceneError> {
         el.check_attrs(PLUGIN_ATTRS)?;
         let kind = el.required("type")?;
+        // (Its `type` key is located at the plugin's place too, as a key below it: no entry of its own.)
         self.places.insert(key, Place::plugin(el));
-        self.places.insert(&join_key(key, "type"), Place::plugin(el));
         let mut t = Table::new();
         t.insert("type".into(), Value::String(kind.to_string()));
         Ok(t)
