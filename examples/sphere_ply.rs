@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use caustica::math::Vec3;
 use caustica::mesh::{ply::write_ply, shapes::sphere};
-use caustica::scene::{SPHERE_RINGS, SPHERE_SEGMENTS};
+use caustica::shape::{SPHERE_RINGS, SPHERE_SEGMENTS};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
