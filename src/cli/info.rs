@@ -81,13 +81,9 @@ pub fn describe(scene: &Scene) -> String {
     let _ = writeln!(s, "{}", scene.path.display());
     let _ = writeln!(
         s,
-        "  film        {}×{} (crop {},{},{},{}: {} pixels), {} spp, seed {}",
+        "  film        {}×{} (crop {crop}: {} pixels), {} spp, seed {}",
         scene.camera.width(),
         scene.camera.height(),
-        crop.x0,
-        crop.y0,
-        crop.x1,
-        crop.y1,
         crop.area(),
         settings.spp,
         settings.seed
