@@ -160,10 +160,11 @@ fn describe_budget(b: PhotonBudget) -> String {
 fn memory(scene: &Scene, settings: &RenderSettings) -> String {
     let m = MemoryEstimate::of(scene, settings);
     format!(
-        "about {} (mesh {}, film {}, photon map {}; the intersection backend's structure comes on top)",
+        "about {} (mesh {}, film {}, photon map {}, images {}; the intersection backend's structure comes on top)",
         mb(m.total()),
         mb(m.mesh),
         mb(m.film),
-        mb(m.photon_map)
+        mb(m.photon_map),
+        mb(m.images)
     )
 }

@@ -146,7 +146,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     for (i, emitter) in file.emitter.iter().enumerate() {
         emitter_plans.push(plan_emitter(ctx, &join_index("emitter", i), emitter, base_dir, &mut materials)?);
     }
-    let (mut materials, mut textures) = materials.finish(ctx)?;
+    let (mut materials, mut textures, mut image_bytes) = materials.finish(ctx)?;
     let mut attributes = SceneAttributes::new(&materials, &mut textures);
 
     // Phase 2: every referenced file exists.
@@ -226,6 +226,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
                         LightError::ScaleOverflow { .. } => ctx.key_error(&join_key(&key, "scale"), e.to_string()),
                         _ => ctx.asset_error(&join_key(&key, "filename"), &path, e.to_string()),
                     })?;
+                    image_bytes += env.memory_bytes();
                     lights.push(Light::Env(env));
                 }
             }
@@ -259,6 +260,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         tri_flat,
         materials,
         textures,
+        image_bytes,
         attributes,
         tri_has_uv,
         shape_first_triangle,
