@@ -482,7 +482,10 @@ fn plugins_read_mitsubas_keys_and_defaults() {
     assert_eq!(build("bitmap", "filename = \"a\"\nfilter_type = 1").unwrap_err().key, "filter_type");
     assert_eq!(build("checkerboard", "").unwrap(), TextureSpec::Checkerboard { color0: Vec3::splat(0.4), color1: Vec3::splat(0.2) });
     assert_eq!(build("checkerboard", "color0 = [0.1, 0.2, 0.3]\ncolor1 = 1").unwrap(), TextureSpec::Checkerboard { color0: Vec3::new(0.1, 0.2, 0.3), color1: Vec3::ONE });
-    assert_eq!(build("checkerboard", "color1 = 1.5").unwrap_err().key, "color1");
+    // A number is Mitsuba's unbounded `uniform`, an RGB colour its bounded `srgb`.
+    assert_eq!(build("checkerboard", "color1 = 1.5").unwrap(), TextureSpec::Checkerboard { color0: Vec3::splat(0.4), color1: Vec3::splat(1.5) });
+    assert_eq!(build("checkerboard", "color1 = [1.5, 0.5, 0.5]").unwrap_err().key, "color1");
+    assert_eq!(build("checkerboard", "color0 = nan").unwrap_err().key, "color0");
 }
 
 // ---- against Mitsuba 3.9.1 ----

@@ -293,6 +293,19 @@ fn principled_mis_matches_mitsuba() {
 }
 
 #[test]
+fn principledthin_pt_matches_mitsuba() {
+    // A sheen/flatness floor with a textured base colour, a leaf transmitting diffusely, a frosted sheet
+    // with a textured roughness (the wall seen through it) and Mitsuba's documentation example.
+    matches_mitsuba("principledthin", Estimator::Pt, 512);
+}
+
+#[test]
+fn principledthin_mis_matches_mitsuba() {
+    // The glass sphere's caustic on the principledthin floor, gathered from photons.
+    matches_mitsuba("principledthin", Estimator::Mis, 64);
+}
+
+#[test]
 fn projector_pt_matches_mitsuba() {
     // Mitsuba's projector: NEE reads the texture where the point projects onto its film, times
     // π·scale·k/(z²·cos θ); a bitmap's aspect sets the film, a focal length its field of view.
