@@ -306,6 +306,19 @@ fn principledthin_mis_matches_mitsuba() {
 }
 
 #[test]
+fn spot_texture_pt_matches_mitsuba() {
+    // A textured spot: NEE reads the texture at Mitsuba's direction_to_uv, times the falloff; a bitmap
+    // projected obliquely through a mirrored (look_at) frame, a checkerboard with a hard edge.
+    matches_mitsuba("spot-texture", Estimator::Pt, 512);
+}
+
+#[test]
+fn spot_texture_mis_matches_mitsuba() {
+    // The glass sphere's caustic is the checkerboard spot's photons (which carry the texture).
+    matches_mitsuba("spot-texture", Estimator::Mis, 64);
+}
+
+#[test]
 fn projector_pt_matches_mitsuba() {
     // Mitsuba's projector: NEE reads the texture where the point projects onto its film, times
     // π·scale·k/(z²·cos θ); a bitmap's aspect sets the film, a focal length its field of view.

@@ -120,7 +120,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
             }
         } else {
             // Textures go on BSDF properties, an area emitter's radiance and a projector's irradiance.
-            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && (kind == "area" || kind == "projector")) {
+            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && (kind == "area" || kind == "projector" || kind == "spot")) {
                 push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
                 continue;
             }
