@@ -319,6 +319,19 @@ fn spot_texture_mis_matches_mitsuba() {
 }
 
 #[test]
+fn everything_pt_matches_mitsuba() {
+    // Issue 38's scene with every new material and texture type (everything.toml's header lists them;
+    // Mitsuba 0.6's phong and ward have no Mitsuba 3 image to match).
+    matches_mitsuba("everything", Estimator::Pt, 256);
+}
+
+#[test]
+fn everything_mis_matches_mitsuba() {
+    // The photon pass over the same materials (thindielectric and the mask's pass-through are delta lobes).
+    matches_mitsuba("everything", Estimator::Mis, 64);
+}
+
+#[test]
 fn projector_pt_matches_mitsuba() {
     // Mitsuba's projector: NEE reads the texture where the point projects onto its film, times
     // π·scale·k/(z²·cos θ); a bitmap's aspect sets the film, a focal length its field of view.
