@@ -229,6 +229,18 @@ impl<'a, C> Props<'a, C> {
         self.get(key).map_or(Ok(default), |v| colour(v).and_then(reflectance).map_err(|m| PropError::new(key, m)))
     }
 
+    /// A value Mitsuba reads with a bounded `get_texture` (src/core/properties.cpp, `get_texture_impl`), or
+    /// `default` when absent: a number is Mitsuba's `uniform` texture, which has no bound (finite here: the
+    /// parameter it drives checks its own range), an RGB colour its `srgb`, which must be a reflectance.
+    pub fn texture_value_or(&self, key: &str, default: Vec3) -> Result<Vec3, PropError> {
+        match self.get(key) {
+            Some(v @ (Value::Float(_) | Value::Integer(_))) if self.texture(key).is_none() => {
+                number(v).and_then(finite).map(Vec3::splat).map_err(|m| PropError::new(key, m))
+            }
+            _ => self.reflectance_or(key, default),
+        }
+    }
+
     /// The per-channel maximum of the colour at `key` when it is a texture (a constant's maximum is its
     /// value, which the caller has): what Mitsuba 0.6's `ensureEnergyConservation` reads (`getMaximum`).
     #[must_use]

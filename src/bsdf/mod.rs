@@ -18,7 +18,8 @@
 //!   exterior) is −z; `RoughDielectric`'s refraction is a non-delta lobe (`f` and `pdf_w` across the surface).
 //! - `Principled` (Mitsuba 3's `principled`): its diffuse, sheen and clearcoat lobes reflect from the front
 //!   only, its main specular lobe on both sides; with a transmitting share (`spec_trans`) it refracts as
-//!   `RoughDielectric` does (interior −z), without one nothing scatters from behind.
+//!   `RoughDielectric` does (interior −z), without one nothing scatters from behind. `PrincipledThin`
+//!   (`principledthin`) is a sheet: the same from either side, its transmission unbent.
 //! - `NormalMap` and `BumpMap` (Mitsuba's `normalmap`, `bumpmap`) evaluate their nested BSDF in a frame
 //!   perturbed at the hit (`perturbed`): the material layer sets the perturbation from a texture and the
 //!   hit's geometry; they are not reciprocal (nor are Mitsuba's).
@@ -52,6 +53,7 @@ mod plastic;
 mod pplastic;
 mod principled;
 mod principled_lobes;
+mod principledthin;
 mod rough_coating;
 mod roughconductor;
 mod roughdielectric;
@@ -79,6 +81,7 @@ pub use null::Null;
 pub use phong::Phong;
 pub use plastic::Plastic;
 pub use principled::{Principled, SamplingRates};
+pub use principledthin::{PrincipledThin, ThinSamplingRates};
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use pplastic::PPlastic;
@@ -225,6 +228,7 @@ bsdf_types! {
     RoughPlastic(roughplastic::RoughPlastic),
     PPlastic(pplastic::PPlastic),
     Principled(principled::Principled),
+    PrincipledThin(principledthin::PrincipledThin),
     Blend(blend::Blend),
     TwoSided(twosided::TwoSided),
     Mask(mask::Mask),

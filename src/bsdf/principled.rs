@@ -169,21 +169,21 @@ fn eta_of_specular(specular: f32) -> f32 {
 }
 
 /// The main lobes' GGX distribution for these parameters.
-fn distribution(roughness: f32, anisotropic: f32) -> Microfacet {
+pub(super) fn distribution(roughness: f32, anisotropic: f32) -> Microfacet {
     let (alpha_u, alpha_v) = specular_alphas(roughness, anisotropic);
     Microfacet { kind: MicrofacetType::Ggx, alpha_u, alpha_v, sample_visible: true }
 }
 
 /// `v` mirrored through the tangent plane to the +z side (`G1` depends on `tan²θ` alone).
 #[inline]
-fn up(v: Vec3) -> Vec3 {
+pub(super) fn up(v: Vec3) -> Vec3 {
     Vec3::new(v.x, v.y, v.z.abs())
 }
 
 /// `wo` mirrored through the origin to the +z side, as the visible normals are drawn (Mitsuba's
 /// `mulsign(si.wi, cos θi)`).
 #[inline]
-fn toward_z(wo: Vec3) -> Vec3 {
+pub(super) fn toward_z(wo: Vec3) -> Vec3 {
     if wo.z > 0.0 {
         wo
     } else {
@@ -238,7 +238,7 @@ impl Principled {
 /// Whether a microfacet `m` (+z side) can connect `wo` and `wi`: both see its front for a reflection, `wi`
 /// its back for a refraction, the front being the side `wo` comes from (Mitsuba's `mac_mic_compatibility`).
 #[inline]
-fn compatible(m: Vec3, wo: Vec3, wi: Vec3, reflection: bool) -> bool {
+pub(super) fn compatible(m: Vec3, wo: Vec3, wi: Vec3, reflection: bool) -> bool {
     let m = if wo.z > 0.0 { m } else { -m };
     wo.dot(m) > 0.0 && if reflection { wi.dot(m) > 0.0 } else { wi.dot(m) < 0.0 }
 }
@@ -288,7 +288,7 @@ impl Model for Principled {
                     flatness: self.flatness,
                     sheen: self.sheen,
                     sheen_tint: self.sheen_tint,
-                    metallic: self.metallic,
+                    sheen_weight: 1.0 - self.metallic,
                     brdf,
                 };
                 f += terms.f(wo, wi, h);

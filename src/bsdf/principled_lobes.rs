@@ -3,7 +3,7 @@
 //! the Disney BRDF to a BSDF with Integrated Subsurface Scattering"): Schlick's Fresnel as Mitsuba chooses
 //! its angle, the blended Fresnel of the main specular lobe, the roughness mapping, the clearcoat's GTR1
 //! distribution and masking, and the diffuse, retro-reflection, fake-subsurface and sheen terms.
-//! `super::principled` combines them into the BSDF; all directions are in its local frame, `wo` the
+//! `super::principled` and `super::principledthin` combine them into their BSDFs; all directions are in its local frame, `wo` the
 //! direction the path arrives from (Mitsuba's `si.wi`), `wi` the other (Mitsuba's `wo`).
 
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
@@ -163,8 +163,11 @@ pub(super) struct DiffuseTerms {
     pub flatness: f32,
     pub sheen: f32,
     pub sheen_tint: f32,
-    pub metallic: f32,
-    /// `(1 − metallic)(1 − spec_trans)`.
+    /// The sheen's weight: `1 − metallic` in `principled`, `(1 − spec_trans)(1 − diff_trans/2)` in
+    /// `principledthin`.
+    pub sheen_weight: f32,
+    /// The diffuse lobe's weight: `(1 − metallic)(1 − spec_trans)` in `principled`, `(1 − spec_trans)(1 −
+    /// diff_trans/2)` in `principledthin`.
     pub brdf: f32,
 }
 
@@ -173,9 +176,9 @@ impl DiffuseTerms {
     /// `h`: Burley's diffuse with retro-reflection, `brdf·base/π·((1 − Fo/2)(1 − Fi/2) + R_R(Fo + Fi +
     /// Fo·Fi(R_R − 1)))`, `R_R = 2·roughness·cos²θd`, blended by `flatness` into the Hanrahan–Krueger-like
     /// fake subsurface `1.25·(F_ss·(1/(cos θo + cos θi) − ½) + ½)`, `F_ss = (1 + (F_ss90 − 1)Fo)(1 +
-    /// (F_ss90 − 1)Fi)`, `F_ss90 = R_R/2`; plus the sheen `sheen·(1 − metallic)·(1 − cos θd)⁵` tinted toward
-    /// the base by `sheen_tint` (Mitsuba's `principled` `eval`: the sheen, not divided by π, only where the
-    /// diffuse lobe is).
+    /// (F_ss90 − 1)Fi)`, `F_ss90 = R_R/2`; plus the sheen `sheen·sheen_weight·(1 − cos θd)⁵` tinted toward
+    /// the base by `sheen_tint` (Mitsuba's `principled` and `principledthin` `eval`: the sheen, not divided by
+    /// π, only where the diffuse lobe is).
     pub(super) fn f(&self, wo: Vec3, wi: Vec3, h: Vec3) -> Vec3 {
         let (f_o, f_i) = (schlick_weight(wi.z.abs()), schlick_weight(wo.z.abs()));
         let f_diff = (1.0 - 0.5 * f_i) * (1.0 - 0.5 * f_o);
@@ -190,9 +193,9 @@ impl DiffuseTerms {
             lobe += (f_ss - lobe) * self.flatness;
         }
         let mut f = self.base_color * (self.brdf * FRAC_1_PI * lobe);
-        if self.sheen > 0.0 && 1.0 - self.metallic > 0.0 {
+        if self.sheen > 0.0 && self.sheen_weight > 0.0 {
             let c_sheen = Vec3::ONE + (tint(self.base_color) - Vec3::ONE) * self.sheen_tint;
-            f += c_sheen * (self.sheen * (1.0 - self.metallic) * schlick_weight(cos_d.abs()));
+            f += c_sheen * (self.sheen * self.sheen_weight * schlick_weight(cos_d.abs()));
         }
         f
     }

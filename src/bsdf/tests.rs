@@ -86,8 +86,9 @@ fn chi2(test: &Chi2Test, bsdf: &Bsdf, wo: Vec3) -> Chi2Outcome {
 
 /// Number of χ² tests in this file (6 diffuse + 2×4×6 rough conductor with visible normals + 2×2×3 without
 /// + 2×3×4 anisotropic + 2×6×5 rough glass + 2×3×3 rough plastic + 6×2 + 6 + 3 blends + 4 plastic + 2×6 + 3
-/// masks + 7×3 + 3 perturbed frames + 4×3 phong + 3×3 + 2×2 ward + 25 principled + 2×4×3 pplastic): the family the Šidák correction accounts for.
-const CHI2_FAMILY: usize = 306;
+/// masks + 7×3 + 3 perturbed frames + 4×3 phong + 3×3 + 2×2 ward + 25 principled + 2×4×3 pplastic + 5×4
+/// principledthin): the family the Šidák correction accounts for.
+const CHI2_FAMILY: usize = 326;
 
 /// A coloured plastic of polypropylene's index.
 fn plastic() -> Bsdf {
@@ -779,6 +780,9 @@ fn never_nan_at_grazing_or_degenerate_input() {
         principled("base_color = 0\nspecular = 0\nspec_trans = 1"),
         principled("roughness = 1\nanisotropic = 1\nspec_trans = 0.3\neta = 0.6"),
         principled("main_specular_sampling_rate = 0\ndiffuse_reflectance_sampling_rate = 0\nclearcoat_sampling_rate = 0"),
+        principledthin("roughness = 0\nspec_trans = 1\neta = 1\nanisotropic = 1\nspec_tint = 1\nbase_color = 0"),
+        principledthin("roughness = 1\nspec_trans = 0.5\ndiff_trans = 2\nsheen = 1\nsheen_tint = 1\nflatness = 1\neta = 0.1"),
+        principledthin("spec_trans = 0.5\ndiff_trans = 1\nspecular_reflectance_sampling_rate = 0\nspecular_transmittance_sampling_rate = 0\ndiffuse_reflectance_sampling_rate = 0\ndiffuse_transmittance_sampling_rate = 0"),
     ]);
     let tiny = [0.0f32, 1e-45, 1e-38, 1e-30, 1e-20, 1e-8, 1e-4];
     let mut wos = Vec::new();
@@ -1161,5 +1165,103 @@ fn principled_energy_and_reciprocity() {
             // values below 10⁻³.
             assert!((a - c).abs().max_element() <= 1e-3 * a.max_element() + 1e-5, "{name} {wo} {wi}: {a} vs {c}");
         }
+    }
+}
+
+/// Mitsuba's `principledthin` from a scene file's table (TOML lines), through its plugin's constructor.
+fn principledthin(table: &str) -> Bsdf {
+    super::principledthin::tests::parse(table)
+}
+
+/// The incident angles of the `principledthin` χ² tests: the sheet is the same from either side, so both.
+const THIN_THETAS: [f32; 4] = [0.0, 40.0, 80.0, 130.0];
+
+#[test]
+fn chi2_principledthin() {
+    let mut cases = Vec::new();
+    for (name, table) in super::principledthin::tests::SETS {
+        for t in THIN_THETAS {
+            // Lost samples (reflected below, incompatible microfacets): ∫pdf ≤ 1.
+            cases.push((format!("principledthin {name} θo {t}"), principledthin(table), dir(t, 0.3 + t.to_radians()), PdfIntegral::AtMostOne));
+        }
+    }
+    run_chi2_suite(&cases, 300_000);
+}
+
+/// Every set from directions all over the sphere: the reported pdf is `pdf_w` bit for bit, the weight
+/// `f·|cos θi|/pdf_w`, the sampled albedo the integrated one; the sheet is symmetric (`f(−wo, −wi) = f(wo,
+/// wi)`), reciprocal in reflection and the same in both modes.
+#[test]
+fn principledthin_samples_report_pdf_w_weight_and_albedo_consistently() {
+    for (k, (name, table)) in super::principledthin::tests::SETS.iter().enumerate() {
+        let b = principledthin(table);
+        for i in 0..20_000u64 {
+            let mut s = Sampler::for_key(38, k as u64, i);
+            let wo = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let Some(smp) = b.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Radiance) else { continue };
+            let wi = smp.wi_local;
+            assert!(!smp.delta && (wi.length() - 1.0).abs() < 1e-5, "{name}");
+            assert_eq!(smp.pdf_w.to_bits(), b.pdf_w(wo, wi).to_bits(), "{name}: {wo} → {wi}");
+            let want = b.f(wo, wi, TransportMode::Radiance) * wi.z.abs() / smp.pdf_w;
+            assert!((smp.weight - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-6), "{name}: {} vs {want}", smp.weight);
+            let f = b.f(wo, wi, TransportMode::Radiance);
+            assert_eq!(f, b.f(wo, wi, TransportMode::Importance), "{name}");
+            assert_eq!(f, b.f(-wo, -wi, TransportMode::Radiance), "{name}");
+            // Reflection is reciprocal; the specular transmission is not where one of the pair sees the
+            // microfacet's front (Mitsuba's `mac_mic_compatibility` is not symmetric across the sheet).
+            let back = b.f(wi, wo, TransportMode::Radiance);
+            if wo.z * wi.z > 0.0 {
+                assert!((f - back).abs().max_element() <= 1e-3 * f.max_element() + 1e-6, "{name} {wo} {wi}: {f} vs {back}");
+            }
+        }
+        for t in [0.0f32, 40.0, 80.0] {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&b, wo, 200_000);
+            for c in 0..3 {
+                let integral = integrate_sphere(|wi| b.f(wo, wi, TransportMode::Radiance)[c] * wi.z.abs()) as f32;
+                assert!((albedo[c] - integral).abs() <= 5.0 * se[c] + 5e-3 * integral, "{name} θo {t} channel {c}: sampled {} vs ∫ {integral}", albedo[c]);
+            }
+        }
+    }
+}
+
+/// Furnaces of the sheet: a white pure diffuse transmitter (`diff_trans = 2`) passes everything, every sample
+/// weighing 1; a white specular sheet of η = 2 (where the transmission's roughness is the reflection's) splits
+/// a white rough mirror's scattering between its two sides, `F` and `1 − F` at the same microfacet, so its
+/// albedo is at most that mirror's (≤ 1; less where a turned-over direction sees the microfacet's front, which
+/// Mitsuba's transmission drops); with `roughness = 0` (no retro-reflection) the white
+/// diffuse reflection and transmission together keep at most what arrives and at least what Burley's
+/// grazing factors leave.
+#[test]
+fn principledthin_furnace() {
+    let transmitter = principledthin("base_color = 1.0\ndiff_trans = 2.0");
+    for t in THETAS {
+        let wo = wo_at(t);
+        for i in 0..1000u64 {
+            let mut s = Sampler::for_key(39, i, 0);
+            let smp = transmitter.sample(wo, s.next_1d(), s.next_2d(), TransportMode::Radiance).unwrap();
+            assert!(smp.wi_local.z * wo.z < 0.0 && (smp.weight - Vec3::ONE).abs().max_element() < 1e-5, "θo {t}: {smp:?}");
+        }
+    }
+    for roughness in [0.3f32, 0.6, 1.0] {
+        let sheet = principledthin(&format!("base_color = 1.0\nspec_trans = 1.0\neta = 2.0\nroughness = {roughness}"));
+        let mirror = Bsdf::RoughConductor(RoughConductor {
+            distribution: Microfacet::isotropic(MicrofacetType::Ggx, (roughness * roughness).max(0.001), true),
+            specular_reflectance: Vec3::ONE,
+            eta_k: None,
+        });
+        for t in [0.0f32, 30.0, 60.0, 85.0] {
+            let wo = wo_at(t);
+            let (albedo, se) = sampled_albedo(&sheet, wo, 100_000);
+            let want = integrate_sphere(|wi| mirror.f(wo, wi, TransportMode::Radiance).x * wi.z.abs()) as f32;
+            assert!(albedo.x <= want + 5.0 * se.x + 5e-3 * want && albedo.x > 0.5 * want, "r {roughness} θo {t}: {albedo} vs mirror {want}");
+            assert!((albedo.x - albedo.z).abs() < 1e-6, "r {roughness} θo {t}: {albedo}");
+        }
+    }
+    let diffuse_sheet = principledthin("base_color = 1.0\nroughness = 0.0\ndiff_trans = 0.6");
+    for t in [0.0f32, 30.0, 60.0, 85.0] {
+        let (albedo, se) = sampled_albedo(&diffuse_sheet, wo_at(t), 100_000);
+        // Burley's two factors (1 − F/2) are each ≥ ½: at least the transmitted 0.3 and a quarter of the 0.7.
+        assert!(albedo.x <= 1.0 + 3.0 * se.x && albedo.x >= 0.3 + 0.7 / 4.0 - 3.0 * se.x, "θo {t}: {albedo}");
     }
 }

@@ -7,7 +7,7 @@
 //! | `envmap` | `filename`, `scale`, `to_world` | an environment map, loaded with the scene's files |
 //! | `constant` | `radiance` | a uniform environment |
 //! | `point` | `intensity`, `position` or `to_world` | a point light |
-//! | `spot` | `intensity`, `cutoff_angle`, `beam_width`, `to_world` | a point light with a beam profile |
+//! | `spot` | `intensity`, `cutoff_angle`, `beam_width`, `texture` (a texture over the beam), `to_world` | a point light with a beam profile |
 //! | `projector` | `irradiance` (a colour or a texture), `scale`, `fov`, `fov_axis`, `focal_length`, `to_world` | a point light with a textured frustum |
 //! | `directional` | `irradiance`, `direction` or `to_world` | a directional light |
 //!
@@ -24,6 +24,7 @@ mod projector;
 mod spot;
 
 pub use projector::Projector;
+pub use spot::Spot;
 
 use crate::light::Light;
 use crate::math::{Mat3, Mat4, Vec3};
@@ -39,8 +40,9 @@ pub(crate) const PLUGINS: &[&Plugin] =
 /// The emitter type attached to shapes (every other type stands alone).
 pub(crate) const AREA: &str = "area";
 
-/// The one stand-alone emitter type whose keys may be textures (its `irradiance`).
+/// The stand-alone emitter types whose keys may be textures (a projector's `irradiance`, a spot's `texture`).
 pub(crate) const PROJECTOR: &str = "projector";
+pub(crate) const SPOT: &str = "spot";
 
 /// An emitter as its file describes it.
 #[derive(Clone, Debug)]
@@ -54,7 +56,9 @@ pub enum Emitter {
     Constant { radiance: Vec3 },
     /// `projector`: its light once the scene reader has its texture ([`Projector::light`]).
     Projector(Projector),
-    /// `point`, `spot`, `directional`: the light itself; `None` when it emits nothing (left out of the scene,
+    /// `spot`: its light once the scene reader has its texture, if it has one ([`Spot::light`]).
+    Spot(Spot),
+    /// `point`, `directional`: the light itself; `None` when it emits nothing (left out of the scene,
     /// as every emitter of zero power is).
     Delta(Option<Light>),
 }

@@ -6,7 +6,8 @@
 //!   distance r is `I/r²` along the line to the light.
 //! - **spot** (`spot.cpp`): a point light whose intensity is `I·falloff(θ)`, θ the angle to the spot's
 //!   axis (+z of its `to_world`): 1 up to `beam_width`, falling linearly in θ to 0 at `cutoff_angle`
-//!   (Mitsuba's `falloff_curve`: `(cutoff − θ)/(cutoff − beam_width)`), 0 beyond.
+//!   (Mitsuba's `falloff_curve`: `(cutoff − θ)/(cutoff − beam_width)`), 0 beyond; with a `texture`, times
+//!   `T(uv)` ([`SpotTexture`]: Mitsuba's `direction_to_uv`, the projector's film rule on a square film).
 //! - **projector** (`projector.cpp`): a point light whose intensity is `π·scale·k·T(uv)/cos³θ` inside a
 //!   perspective frustum, T a texture on its film (module `projector`).
 //! - **directional** (`directional.cpp`): irradiance `E` (W/m² on a surface facing the light) arriving
@@ -14,14 +15,15 @@
 //!
 //! Power (method.md §2, luminance): point `4π·Y(I)`; spot `2π·Y(I)·∫₀^c falloff(θ) sin θ dθ =
 //! 2π·Y(I)·(1 − (sin c − sin b)/(c − b))` (c the cutoff, b the beam width, both in radians; `1 − cos c`
-//! when b = c); projector `Y(π·scale·k·A·mean(T))`; directional `π·R²·Y(E)`, R the scene's bounding
+//! when b = c), a textured spot `Y(I·∫falloff·T dω)` by quadrature over the cone; projector `Y(π·scale·k·A·mean(T))`; directional `π·R²·Y(E)`, R the scene's bounding
 //! radius (the disk of a distant light that covers the scene, as for environment maps).
 
 use std::f32::consts::PI;
 
 use super::projector::{Frustum, ProjectorProfile};
 use super::{disk_emission, EmissionSample, LightSample};
-use crate::math::{Frame, Vec2, Vec3};
+use crate::math::{Frame, Mat3, Vec2, Vec3};
+use crate::texture::Texture;
 use crate::sampling::warp::{square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf_w, uniform_sphere_pdf_w};
 
 /// The beam of a spot light.
@@ -92,12 +94,68 @@ impl SpotProfile {
     }
 }
 
+/// The texture of a spot (Mitsuba's `spot` with a `texture`): its intensity along `w` is multiplied by `T(uv)`,
+/// `uv = (½ + l.x/(2·l.z·tan c), ½ + l.y/(2·l.z·tan c))` for `w` in the spot's frame `l` (Mitsuba's
+/// `direction_to_uv`, c the cutoff angle). That is the projector's film rule ([`Frustum::film_uv`]) on the
+/// square film of half-extent `tan c` with the frame's x and y turned by 180° (the projector's u and v run
+/// against x and y, the spot's along them); the beam's cone lies inside that square, so every lit direction
+/// reads the texture. A cutoff of 90° or more has no such film (`None`).
+#[derive(Clone, Debug)]
+pub struct SpotTexture {
+    film: Frustum,
+    texture: Texture,
+    /// `∫ falloff·T dω` per channel, by quadrature at construction (the light's power).
+    integral: Vec3,
+}
+
+/// Cells per side of the quadrature of a textured spot's power (a stratified grid over the cone).
+const SPOT_POWER_CELLS: u32 = 128;
+
+impl SpotTexture {
+    /// `texture` on the beam of `spot`, whose frame is `frame` (orthonormal, third column the spot's axis).
+    #[must_use]
+    pub fn new(spot: &SpotProfile, frame: Mat3, texture: Texture) -> Option<Self> {
+        if !(spot.cutoff < 0.5 * PI) {
+            return None;
+        }
+        let turned = Mat3::from_cols(-frame.x_axis, -frame.y_axis, frame.z_axis);
+        let tan_c = spot.cutoff.tan();
+        let film = Frustum::new(turned, Vec2::splat(tan_c))?;
+        let mut t = Self { film, texture, integral: Vec3::ZERO };
+        // Midpoints of a grid over the uniform cone warp: each cell is 1/n² of the cone's solid angle.
+        let n = SPOT_POWER_CELLS;
+        let axis = Frame::from_normal(spot.axis);
+        let mut sum = glam::DVec3::ZERO;
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let w = axis.to_world(square_to_uniform_cone(u, spot.cos_cutoff)).normalize();
+                sum += (t.eval(w) * spot.falloff(w)).as_dvec3();
+            }
+        }
+        let solid_angle = 2.0 * std::f64::consts::PI * (1.0 - f64::from(spot.cos_cutoff));
+        t.integral = (sum * solid_angle / f64::from(n * n)).as_vec3();
+        Some(t)
+    }
+
+    /// `T(uv)` along the unit direction `w` (0 behind the spot).
+    #[must_use]
+    pub fn eval(&self, w: Vec3) -> Vec3 {
+        self.film.film_uv(w).map_or(Vec3::ZERO, |(uv, _)| self.texture.eval_rgb(uv))
+    }
+
+    #[must_use]
+    pub fn texture(&self) -> &Texture {
+        &self.texture
+    }
+}
+
 /// How a point light's intensity varies with direction.
 #[derive(Clone, Debug)]
 enum Profile {
     /// The same in every direction (`point`).
     Uniform,
-    Spot(SpotProfile),
+    Spot(SpotProfile, Option<Box<SpotTexture>>),
     Projector(Box<ProjectorProfile>),
 }
 
@@ -152,7 +210,13 @@ impl PointDirection {
 impl PointLight {
     #[must_use]
     pub fn new(position: Vec3, intensity: Vec3, spot: Option<SpotProfile>) -> Self {
-        Self { position, intensity, profile: spot.map_or(Profile::Uniform, Profile::Spot) }
+        Self { position, intensity, profile: spot.map_or(Profile::Uniform, |s| Profile::Spot(s, None)) }
+    }
+
+    /// A spot whose intensity is also multiplied by a texture over its beam.
+    #[must_use]
+    pub fn textured_spot(position: Vec3, intensity: Vec3, spot: SpotProfile, texture: SpotTexture) -> Self {
+        Self { position, intensity, profile: Profile::Spot(spot, Some(Box::new(texture))) }
     }
 
     /// A projector at `position` whose `to_world` scales by k, with `scale·k` (Mitsuba's `scale` times
@@ -175,7 +239,16 @@ impl PointLight {
     #[must_use]
     pub fn spot(&self) -> Option<&SpotProfile> {
         match &self.profile {
-            Profile::Spot(s) => Some(s),
+            Profile::Spot(s, _) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// A spot's texture, if it has one.
+    #[must_use]
+    pub fn spot_texture(&self) -> Option<&SpotTexture> {
+        match &self.profile {
+            Profile::Spot(_, t) => t.as_deref(),
             _ => None,
         }
     }
@@ -188,13 +261,21 @@ impl PointLight {
         }
     }
 
-    /// Radiant intensity leaving along the unit direction `w` (W/sr): `I`, `I·falloff` for a spot,
-    /// `I·T(uv)/cos³θ` for a projector.
+    /// Radiant intensity leaving along the unit direction `w` (W/sr): `I`, `I·falloff` for a spot (times
+    /// `T(uv)` with a texture), `I·T(uv)/cos³θ` for a projector.
     #[must_use]
     pub fn intensity_toward(&self, w: Vec3) -> Vec3 {
         match &self.profile {
             Profile::Uniform => self.intensity,
-            Profile::Spot(s) => self.intensity * s.falloff(w),
+            Profile::Spot(s, None) => self.intensity * s.falloff(w),
+            Profile::Spot(s, Some(t)) => {
+                let falloff = s.falloff(w);
+                if falloff > 0.0 {
+                    self.intensity * falloff * t.eval(w)
+                } else {
+                    Vec3::ZERO
+                }
+            }
             Profile::Projector(p) => self.intensity * p.weight(w),
         }
     }
@@ -204,7 +285,8 @@ impl PointLight {
     pub fn power(&self) -> f32 {
         match &self.profile {
             Profile::Uniform => super::luminance(self.intensity) * 4.0 * PI,
-            Profile::Spot(s) => super::luminance(self.intensity) * s.solid_angle_integral(),
+            Profile::Spot(s, None) => super::luminance(self.intensity) * s.solid_angle_integral(),
+            Profile::Spot(_, Some(t)) => super::luminance(self.intensity * t.integral),
             Profile::Projector(p) => super::luminance(self.intensity * p.solid_angle_integral()),
         }
     }
@@ -214,7 +296,7 @@ impl PointLight {
     fn beam(&self) -> Option<PointDirection> {
         match &self.profile {
             Profile::Uniform => None,
-            Profile::Spot(s) => Some(PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff }),
+            Profile::Spot(s, _) => Some(PointDirection::Cone { axis: s.axis, cos_max: s.cos_cutoff }),
             Profile::Projector(p) => Some(PointDirection::Frustum(*p.frustum())),
         }
     }

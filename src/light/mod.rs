@@ -28,10 +28,12 @@ mod tests_delta;
 #[cfg(test)]
 mod tests_projector;
 #[cfg(test)]
+mod tests_spot_texture;
+#[cfg(test)]
 mod tests_env;
 
 pub use area::AreaLight;
-pub use delta::{DirectionalLight, PointLight, SpotProfile};
+pub use delta::{DirectionalLight, PointLight, SpotProfile, SpotTexture};
 pub use env::EnvMap;
 pub use projector::{Frustum, ProjectorProfile};
 pub use set::LightSet;

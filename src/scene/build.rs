@@ -478,14 +478,14 @@ fn area_emitter(ctx: &ErrorContext, key: &str, table: &toml::Table, materials: &
 }
 
 /// A top-level emitter's table at `key` → its plan (`crate::emitter`; its `to_world` read here). A
-/// projector's `irradiance` may be a texture, resolved as an area emitter's `radiance` is.
+/// projector's `irradiance` and a spot's `texture` may be textures, resolved as an area emitter's `radiance` is.
 fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, materials: &mut Materials) -> Result<EmitterPlan, SceneError> {
     if d.kind == emitter::AREA {
         let message = "an `area` emitter is attached to a shape: `emitter = { type = \"area\", … }` in its [[shape]] (in XML, inside its <shape>)";
         return Err(ctx.key_error(&join_key(key, "type"), message));
     }
     let mut texture = None;
-    let built = if d.kind == emitter::PROJECTOR {
+    let built = if d.kind == emitter::PROJECTOR || d.kind == emitter::SPOT {
         plugins::build_textured(ctx, key, Role::Emitter, emitter::PLUGINS, d, |at, v| to_world_value(ctx, at, v), |at, _, v| {
             let t = materials.texture(ctx, at, v)?;
             let summary = t.summary();
@@ -508,6 +508,7 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, 
             let texture = texture.unwrap_or(Texture::Constant(p.irradiance));
             EmitterPlan::Projector(p, texture)
         }
+        Emitter::Spot(s) => EmitterPlan::Delta(s.light(texture)),
         Emitter::Area { .. } => unreachable!("refused above"),
     })
 }

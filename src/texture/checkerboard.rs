@@ -8,6 +8,8 @@
 //!
 //! ```toml
 //! reflectance = { type = "checkerboard", color0 = [0.9, 0.9, 0.9], color1 = 0.1 }   # defaults 0.4, 0.2
+//! # an RGB colour must be a reflectance; a number is any finite value, as Mitsuba's `uniform` (the parameter
+//! # the texture drives checks its range: diff_trans = { type = "checkerboard", color0 = 0.4, color1 = 1.4 })
 //! ```
 
 use super::{channel_mean, TextureSpec};
@@ -60,8 +62,9 @@ pub(super) const PLUGIN: Plugin<TextureSpec> = Plugin {
 };
 
 fn build(p: Props<'_, ()>) -> Result<TextureSpec, PropError> {
-    // Mitsuba reads both with `get_texture` (bounded: an RGB value must be a reflectance).
-    let color0 = p.reflectance_or("color0", Vec3::splat(0.4))?;
-    let color1 = p.reflectance_or("color1", Vec3::splat(0.2))?;
+    // Mitsuba reads both with `get_texture`: an RGB value must be a reflectance, a number is unbounded (a
+    // `diff_trans` of 1.4 in Mitsuba's own test scenes).
+    let color0 = p.texture_value_or("color0", Vec3::splat(0.4))?;
+    let color1 = p.texture_value_or("color1", Vec3::splat(0.2))?;
     Ok(TextureSpec::Checkerboard { color0, color1 })
 }

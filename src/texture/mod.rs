@@ -1,6 +1,7 @@
 //! Textures: Mitsuba 3.9.1's `bitmap` (src/textures/bitmap.cpp over include/mitsuba/core/bitmap.h and
 //! Dr.Jit's `Texture`), `checkerboard` (src/textures/checkerboard.cpp), `mesh_attribute`
-//! (src/textures/mesh_attribute.cpp: read at a [`TexEval`]'s [`MeshPoint`]) and the constant values Mitsuba
+//! (src/textures/mesh_attribute.cpp: read at a [`TexEval`]'s [`MeshPoint`]), `rawconstant`
+//! (src/spectra/rawconstant.cpp: a constant as written) and the constant values Mitsuba
 //! makes of an `<rgb>`/`<float>` (`srgb`/`uniform`, src/spectra/srgb.cpp), as its RGB variants evaluate
 //! them at a texture coordinate. The material layer binds them to BSDF and emitter parameters; this
 //! module knows no scene, BSDF or file format of scenes.
@@ -15,6 +16,8 @@
 //! # both take `to_uv`, a 2-D affine transform of the texture coordinates (read by the scene layer)
 //! # a mesh's per-vertex or per-face attribute (`mesh_attribute`; scale default 1)
 //! reflectance = { type = "mesh_attribute", name = "vertex_color", scale = 1.0 }
+//! # one value or three as written, no colour conversion or range check (`rawconstant`)
+//! normalmap = { type = "rawconstant", value = [0.5, 0.5, 1.0] }
 //! ```
 //!
 //! Texture coordinates as Mitsuba's: `(0, 0)` is the top-left corner of the image as stored in the file
@@ -35,6 +38,7 @@ mod cache;
 mod checkerboard;
 mod decode;
 mod mesh_attribute;
+mod rawconstant;
 mod texels;
 #[cfg(test)]
 mod tests;
@@ -306,7 +310,7 @@ pub enum TextureError {
 
 /// The texture types the scene files name (Mitsuba's plugin names), with their keys and constructors.
 #[cfg_attr(not(test), allow(dead_code))] // read by the scene layer's texture descriptions (to be wired)
-pub(crate) const PLUGINS: &[&Plugin<TextureSpec>] = &[&bitmap::PLUGIN, &checkerboard::PLUGIN, &mesh_attribute::PLUGIN];
+pub(crate) const PLUGINS: &[&Plugin<TextureSpec>] = &[&bitmap::PLUGIN, &checkerboard::PLUGIN, &mesh_attribute::PLUGIN, &rawconstant::PLUGIN];
 
 /// The texture plugin named `name`.
 #[cfg_attr(not(test), allow(dead_code))] // as PLUGINS

@@ -468,7 +468,7 @@ fn build(name: &str, toml_text: &str) -> Result<TextureSpec, PropError> {
 
 #[test]
 fn plugins_read_mitsubas_keys_and_defaults() {
-    assert_eq!(PLUGINS.iter().map(|p| p.name).collect::<Vec<_>>(), ["bitmap", "checkerboard", "mesh_attribute"]);
+    assert_eq!(PLUGINS.iter().map(|p| p.name).collect::<Vec<_>>(), ["bitmap", "checkerboard", "mesh_attribute", "rawconstant"]);
     assert_eq!(build("bitmap", "filename = \"a.png\"").unwrap(), TextureSpec::Bitmap(BitmapSpec { filename: "a.png".into(), ..bitmap_spec("") }));
     let all = "filename = \"b.exr\"\nraw = true\nfilter_type = \"nearest\"\nwrap_mode = \"mirror\"\nformat = \"fp16\"\naccel = false";
     assert_eq!(
@@ -482,7 +482,16 @@ fn plugins_read_mitsubas_keys_and_defaults() {
     assert_eq!(build("bitmap", "filename = \"a\"\nfilter_type = 1").unwrap_err().key, "filter_type");
     assert_eq!(build("checkerboard", "").unwrap(), TextureSpec::Checkerboard { color0: Vec3::splat(0.4), color1: Vec3::splat(0.2) });
     assert_eq!(build("checkerboard", "color0 = [0.1, 0.2, 0.3]\ncolor1 = 1").unwrap(), TextureSpec::Checkerboard { color0: Vec3::new(0.1, 0.2, 0.3), color1: Vec3::ONE });
-    assert_eq!(build("checkerboard", "color1 = 1.5").unwrap_err().key, "color1");
+    // A number is Mitsuba's unbounded `uniform`, an RGB colour its bounded `srgb`.
+    assert_eq!(build("checkerboard", "color1 = 1.5").unwrap(), TextureSpec::Checkerboard { color0: Vec3::splat(0.4), color1: Vec3::splat(1.5) });
+    assert_eq!(build("checkerboard", "color1 = [1.5, 0.5, 0.5]").unwrap_err().key, "color1");
+    assert_eq!(build("checkerboard", "color0 = nan").unwrap_err().key, "color0");
+    // `rawconstant`: one value or three, as written (no colour conversion, no range check); required.
+    assert_eq!(build("rawconstant", "value = [0.5, 0.5, 1.0]").unwrap(), TextureSpec::Constant(Vec3::new(0.5, 0.5, 1.0)));
+    assert_eq!(build("rawconstant", "value = -2.5").unwrap(), TextureSpec::Constant(Vec3::splat(-2.5)));
+    assert_eq!(build("rawconstant", "").unwrap_err().key, "value");
+    assert_eq!(build("rawconstant", "value = [1, 2]").unwrap_err().key, "value");
+    assert_eq!(build("rawconstant", "value = \"red\"").unwrap_err().key, "value");
 }
 
 // ---- against Mitsuba 3.9.1 ----

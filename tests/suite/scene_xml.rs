@@ -304,8 +304,8 @@ fn an_area_emitters_radiance_may_be_a_texture() {
 #[test]
 fn errors_name_file_line_and_plugin_or_property() {
     // Unknown plugin type.
-    let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"principledthin\"/>\n</shape>");
-    assert_names(&e, &["bad.xml:4:", "<bsdf type=\"principledthin\">", "principledthin"]);
+    let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"mixturebsdf\"/>\n</shape>");
+    assert_names(&e, &["bad.xml:4:", "<bsdf type=\"mixturebsdf\">", "mixturebsdf"]);
     // Unknown property.
     let e = xml_error("<shape type=\"cube\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.1\"/>\n  </bsdf>\n</shape>");
     assert_names(&e, &["bad.xml:5:", "<float name=\"roughness\">", "`roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"]);

@@ -203,7 +203,7 @@ fn everything_unsupported_is_reported_at_once() {
 <integrator type="guided_path"/>
 {SENSOR}
 <texture type="volume" id="checks"/>
-<bsdf type="principledthin" id="floor"/>
+<bsdf type="mixturebsdf" id="floor"/>
 <shape type="shapegroup"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
 <medium type="homogeneous" id="fog"/>
@@ -215,7 +215,7 @@ fn everything_unsupported_is_reported_at_once() {
     for (line, phrase) in [
         (2, "integrator type \"guided_path\""),
         (6, "texture type \"volume\""),
-        (7, "bsdf type \"principledthin\" is not supported yet"),
+        (7, "bsdf type \"mixturebsdf\" is not supported yet"),
         (8, "shape type \"shapegroup\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
@@ -223,7 +223,7 @@ fn everything_unsupported_is_reported_at_once() {
         assert!(e.contains(&format!("scene.xml:{line}: ")) && e.contains(phrase), "line {line}, {phrase:?}: {e}");
     }
     // What Mitsuba would do with each is said.
-    assert!(e.contains("Mitsuba renders the thin Disney principled BSDF"), "{e}");
+    assert!(e.contains("Mitsuba renders a weighted mixture of BSDFs"), "{e}");
     // The command line's estimator replaces the integrator: five remain.
     let e = match Scene::load_with(&scene, &LoadOptions { replace_integrator: true, ..LoadOptions::default() }) {
         Ok(_) => panic!("loaded"),

@@ -39,7 +39,6 @@ const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
 const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
-    ("bsdf", "principledthin", "the thin Disney principled BSDF", LATER_MATERIALS),
     ("bsdf", "mixturebsdf", "a weighted mixture of BSDFs", LATER_MATERIALS),
     ("bsdf", "hair", "a hair fibre scattering model", OUT_OF_SCOPE),
     ("bsdf", "measured", "a measured (tabulated) BSDF", OUT_OF_SCOPE),
@@ -121,7 +120,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
             }
         } else {
             // Textures go on BSDF properties, an area emitter's radiance and a projector's irradiance.
-            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && (kind == "area" || kind == "projector")) {
+            if child.tag == "texture" && tag != "bsdf" && !(tag == "emitter" && (kind == "area" || kind == "projector" || kind == "spot")) {
                 push(found, child, format!("a texture on a {tag} is {LATER_MATERIALS}; Mitsuba varies the {tag}'s property over the surface"));
                 continue;
             }

@@ -27,7 +27,8 @@ fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
         "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
         "center" | "position" | "p0" | "p1" => "point",
-        "direction" => "vector",
+        // `rawconstant`'s three raw values: Mitsuba takes a `<vector>` (or a `<float>`), not an `<rgb>`.
+        "direction" | "value" => "vector",
         _ => return None,
     })
 }
