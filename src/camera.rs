@@ -334,6 +334,35 @@ impl Camera {
         Ok(())
     }
 
+    /// The width one pixel covers at `distance` from the camera (method.md §3.2): how far apart the rays
+    /// through the two edges of the film's centre pixel are there, the larger of its x and y edges (a
+    /// perspective or thin-lens pixel's angle times the distance; an orthographic pixel's size), plus
+    /// for a thin lens the diameter of its circle of confusion there, `2·a·|d − f|/f` (aperture radius a,
+    /// focus distance f: the lens's rays through one film point cross at depth f).
+    #[must_use]
+    pub fn pixel_footprint(&self, distance: f32) -> f32 {
+        let (cx, cy) = (0.5 * self.width as f32, 0.5 * self.height as f32);
+        let spread = |a: Ray, b: Ray| a.at(distance).distance(b.at(distance));
+        let x = spread(self.generate_ray(cx - 0.5, cy), self.generate_ray(cx + 0.5, cy));
+        let y = spread(self.generate_ray(cx, cy - 0.5), self.generate_ray(cx, cy + 0.5));
+        let blur = match self.projection {
+            Projection::ThinLens { aperture_radius, focus_distance, .. } => 2.0 * aperture_radius * (distance - focus_distance).abs() / focus_distance,
+            _ => 0.0,
+        };
+        x.max(y) + blur
+    }
+
+    /// [`Camera::pixel_footprint`] at the far side of the bounding sphere of `bounds` (where the caustics
+    /// of the objects in it land, seen from the camera); `None` for empty bounds.
+    #[must_use]
+    pub fn pixel_footprint_beyond(&self, bounds: crate::math::Aabb) -> Option<f32> {
+        if bounds.is_empty() {
+            return None;
+        }
+        let (centre, radius) = bounds.bounding_sphere();
+        Some(self.pixel_footprint(centre.distance(self.origin) + radius))
+    }
+
     /// Whether [`Camera::sample_ray`] draws a lens sample (thin lens only).
     #[must_use]
     pub fn needs_lens_sample(&self) -> bool {
@@ -600,6 +629,32 @@ mod tests {
         // Neither projection draws a lens sample but the thin lens.
         assert!(!cam.needs_lens_sample() && !Camera::new(m, 40.0, FovAxis::X, 4, 4).unwrap().needs_lens_sample());
         assert!(thin_lens(place, 0.1, 1.0).needs_lens_sample());
+    }
+
+    #[test]
+    fn pixel_footprints() {
+        let m = look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-2.0, 0.5, 0.0), Vec3::Y).unwrap();
+        // Perspective: d·2·tan(fov/2)/W, the x axis the wider one here (fov on x).
+        let cam = Camera::new(m, 40.0, FovAxis::X, 640, 480).unwrap();
+        let want = |d: f32| d * 2.0 * (20f32.to_radians()).tan() / 640.0;
+        for d in [0.5, 10.0, 1000.0] {
+            assert!((cam.pixel_footprint(d) / want(d) - 1.0).abs() < 1e-3, "{d}: {} vs {}", cam.pixel_footprint(d), want(d));
+        }
+        // A thin lens adds its circle of confusion 2·a·|d − f|/f: none on the focal plane.
+        let lens = thin_lens(m, 0.1, 5.0);
+        let pin = Camera::new(m, 40.0, FovAxis::X, 64, 48).unwrap();
+        assert!((lens.pixel_footprint(5.0) / pin.pixel_footprint(5.0) - 1.0).abs() < 5e-3, "{} {}", lens.pixel_footprint(5.0), pin.pixel_footprint(5.0));
+        assert!((lens.pixel_footprint(15.0) - pin.pixel_footprint(15.0) - 2.0 * 0.1 * 10.0 / 5.0).abs() < 1e-3);
+        // Orthographic: the pixel's size, whatever the distance (a view 20 units wide over 64 pixels).
+        let ortho = Projection::Orthographic { near_clip: 0.5, far_clip: 100.0 };
+        let cam = Camera::with_projection(m * Mat4::from_scale(Vec3::new(10.0, 10.0, 1.0)), ortho, 64, 48).unwrap();
+        assert!((cam.pixel_footprint(1.0) - 20.0 / 64.0).abs() < 1e-5 && (cam.pixel_footprint(50.0) - 20.0 / 64.0).abs() < 1e-4);
+        // Beyond a box: at the far side of its bounding sphere; nothing for an empty box.
+        let cam = Camera::new(look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y).unwrap(), 40.0, FovAxis::X, 100, 100).unwrap();
+        let b = crate::math::Aabb::EMPTY.grow(Vec3::splat(-1.0)).grow(Vec3::splat(1.0));
+        let far = 10.0 + 3f32.sqrt();
+        assert!((cam.pixel_footprint_beyond(b).unwrap() - cam.pixel_footprint(far)).abs() < 1e-6);
+        assert_eq!(cam.pixel_footprint_beyond(crate::math::Aabb::EMPTY), None);
     }
 
     fn cam_rays(cam: &Camera) -> Vec<Ray> {
