@@ -108,7 +108,6 @@
 pub mod aov;
 mod attributes;
 mod build;
-mod clip;
 mod convert;
 mod desc;
 mod error;
