@@ -28,29 +28,24 @@
 //! [near_clip, far_clip] — Mitsuba shifts the origin to the near plane and shortens `maxt` instead, the same
 //! points. Depth, not distance along the ray: the far plane is flat, so a corner ray reaches farther.
 //!
-//! The three projections ([`Projection`]):
-//! - `perspective`: a pinhole at the camera position (Mitsuba's src/sensors/perspective.cpp).
-//! - `thinlens` (Mitsuba's src/sensors/thinlens.cpp, `sample_ray`): the film point is seen through a
-//!   circular aperture of radius `aperture_radius` in the camera's z = 0 plane. A lens sample (the
-//!   concentric disk map of one 2-D dimension of the sample, drawn right after the pixel position) picks a
-//!   point on the aperture; the ray goes from it to where the pinhole ray of the film point meets the plane
-//!   z = `focus_distance`, so every lens sample of a film point meets there (that plane is in focus).
-//!   Mitsuba refuses a `to_world` with
-//!   a scale (its `has_scale`: any product of two rows of the linear part off the identity's by > 10⁻³);
-//!   so does caustica.
-//! - `orthographic` (Mitsuba's src/sensors/orthographic.cpp with `orthographic_projection` of
-//!   include/mitsuba/render/sensor.h): the full film covers x ∈ [-1, 1] (left to right: +1 to -1) and
-//!   y ∈ [-h/w, h/w] of the camera plane; every ray leaves its film point along the camera's +z, normalised
-//!   in world space, from depth `near_clip` for a length `far_clip − near_clip` in world units (Mitsuba's
-//!   `maxt`). `to_world` may scale: a scale of 10 in x and y makes the view 20 units wide.
+//! The three projections ([`Projection`]), one file each with its keys, its checks and its rays:
+//! `perspective` (a pinhole), `thinlens` (an aperture and a focal plane), `orthographic` (parallel rays from
+//! a scalable camera plane); [`SENSORS`] lists them for the scene readers' key check.
 //!
 //! No code connects paths to the camera (photons do not hit it, no light tracing), so the sensors need
 //! no importance or position pdf.
 
+mod orthographic;
+mod perspective;
+mod thinlens;
+
 use crate::film::PixelFilter;
 use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
 use crate::sampler::Sampler;
-use crate::sampling::warp::square_to_uniform_disk_concentric;
+
+/// Every sensor type: Mitsuba's name and the keys it reads (the XML reader's key check, `scene::xml`).
+pub(crate) const SENSORS: &[(&str, &[&str])] =
+    &[(perspective::NAME, perspective::KEYS), (thinlens::NAME, thinlens::KEYS), (orthographic::NAME, orthographic::KEYS)];
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -116,9 +111,9 @@ impl Projection {
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
-            Projection::Perspective { .. } => "perspective",
-            Projection::ThinLens { .. } => "thinlens",
-            Projection::Orthographic { .. } => "orthographic",
+            Projection::Perspective { .. } => perspective::NAME,
+            Projection::ThinLens { .. } => thinlens::NAME,
+            Projection::Orthographic { .. } => orthographic::NAME,
         }
     }
 
@@ -215,12 +210,7 @@ impl Camera {
             }
         }
         if let Projection::ThinLens { aperture_radius, focus_distance, .. } = projection {
-            if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
-                return Err(CameraError::ApertureRadius(aperture_radius));
-            }
-            if !(focus_distance.is_finite() && focus_distance > 0.0) {
-                return Err(CameraError::FocusDistance(focus_distance));
-            }
+            thinlens::check(aperture_radius, focus_distance)?;
         }
         // Mitsuba's `ProjectiveCamera` constructor: 0 < near_clip < far_clip.
         let (near, far) = projection.clip();
@@ -315,8 +305,7 @@ impl Camera {
         let (w, h) = (width as f32, height as f32);
         self.half = match self.projection.fov() {
             Some((fov_deg, fov_axis)) => tan_half(fov_deg, fov_axis, w, h),
-            // Mitsuba's `orthographic_projection`: x spans [-1, 1], y the same scaled by h/w.
-            None => Vec2::new(1.0, h / w),
+            None => orthographic::half(w, h),
         };
         self.width = width;
         self.height = height;
@@ -353,7 +342,7 @@ impl Camera {
         let x = spread(self.generate_ray(cx - 0.5, cy), self.generate_ray(cx + 0.5, cy));
         let y = spread(self.generate_ray(cx, cy - 0.5), self.generate_ray(cx, cy + 0.5));
         let blur = match self.projection {
-            Projection::ThinLens { aperture_radius, focus_distance, .. } => 2.0 * aperture_radius * (distance - focus_distance).abs() / focus_distance,
+            Projection::ThinLens { aperture_radius, focus_distance, .. } => thinlens::blur(aperture_radius, focus_distance, distance),
             _ => 0.0,
         };
         x.max(y) + blur
@@ -404,28 +393,11 @@ impl Camera {
         // depth 1 (perspective, thin lens) or on the camera plane (orthographic).
         let film = Vec2::new(-ndc_x * self.half.x, -ndc_y * self.half.y);
         match self.projection {
-            Projection::Perspective { near_clip, far_clip, .. } => {
-                // perspective.cpp `sample_ray`: from the pinhole, clipped to the depths [near_clip, far_clip].
-                let v = self.basis * film.extend(1.0);
-                depth_clipped(self.origin, v, 1.0, near_clip, far_clip)
-            }
+            Projection::Perspective { near_clip, far_clip, .. } => perspective::ray(self, film, near_clip, far_clip),
             Projection::ThinLens { aperture_radius, focus_distance, near_clip, far_clip, .. } => {
-                // thinlens.cpp `sample_ray`: from the aperture point to where the pinhole ray meets the
-                // focal plane (depth `focus_distance`), clipped to the depths [near_clip, far_clip].
-                let aperture = (aperture_radius * square_to_uniform_disk_concentric(lens)).extend(0.0);
-                let focus = film.extend(1.0) * focus_distance;
-                let start = self.camera_to_world.transform_point3(aperture);
-                depth_clipped(start, self.basis * (focus - aperture), focus_distance, near_clip, far_clip)
+                thinlens::ray(self, film, lens, aperture_radius, focus_distance, near_clip, far_clip)
             }
-            Projection::Orthographic { near_clip, far_clip } => {
-                // orthographic.cpp `sample_ray`: from the film point on the camera plane along +z; it starts
-                // at the near plane (depth near_clip, in world units |to_world·z| per unit of depth) and runs
-                // far_clip − near_clip beyond it in world units (Mitsuba's `maxt`: the far plane itself
-                // unless to_world scales z).
-                let start = self.camera_to_world.transform_point3(film.extend(0.0));
-                let t_near = near_clip * (self.basis * Vec3::Z).length();
-                Ray::segment(start, self.ortho_dir, t_near, t_near + (far_clip - near_clip))
-            }
+            Projection::Orthographic { near_clip, far_clip } => orthographic::ray(self, film, near_clip, far_clip),
         }
     }
 }
@@ -704,6 +676,28 @@ mod tests {
         let far = 10.0 + 3f32.sqrt();
         assert!((cam.pixel_footprint_beyond(b).unwrap() - cam.pixel_footprint(far)).abs() < 1e-6);
         assert_eq!(cam.pixel_footprint_beyond(crate::math::Aabb::EMPTY), None);
+    }
+
+    #[test]
+    fn an_xml_film_crop_reaches_the_camera_and_the_film() {
+        // Mitsuba's hdrfilm (src/render/film.cpp): crop_offset_x/y default to 0, crop_width/height to the
+        // rest of the film, and the window must lie within the film.
+        let load = |crop: &str| {
+            let xml = format!(
+                "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"64\"/>\
+                 <integer name=\"height\" value=\"48\"/>{crop}</film></sensor><shape type=\"cube\"/></scene>"
+            );
+            crate::scene::Scene::from_xml_str(&xml, std::path::Path::new("."), std::path::Path::new("crop.xml"), &Default::default())
+        };
+        let int = |name: &str, v: u32| format!("<integer name=\"{name}\" value=\"{v}\"/>");
+        let scene = load(&format!("{}{}{}", int("crop_offset_x", 8), int("crop_offset_y", 4), int("crop_width", 16))).unwrap();
+        assert_eq!(scene.camera.crop(), Rect::new(8, 4, 24, 48));
+        let film = crate::film::Film::for_camera(&scene.camera).unwrap();
+        assert_eq!((film.width(), film.crop()), (64, Rect::new(8, 4, 24, 48)));
+        assert_eq!(load(&int("crop_height", 10)).unwrap().camera.crop(), Rect::new(0, 0, 64, 10));
+        assert_eq!(load("").unwrap().camera.crop(), Rect::new(0, 0, 64, 48));
+        let e = load(&format!("{}{}", int("crop_offset_x", 60), int("crop_width", 8))).err().expect("outside the film");
+        assert!(e.to_string().contains("crop.xml") && e.to_string().contains("crop"), "{e}");
     }
 
     fn cam_rays(cam: &Camera) -> Vec<Ray> {
