@@ -100,10 +100,18 @@ impl RenderSettings {
                 (None, None) => PhotonBudget::Emitted(defaults::photons(pixels)),
             },
             knn: caus.knn,
-            max_radius: caus.max_radius.unwrap_or_else(|| defaults::max_radius(scene.bounds.bounding_sphere().1)),
+            max_radius: caus.max_radius.unwrap_or_else(|| Self::default_max_radius(scene, caus.knn)),
             round_seconds: defaults::ROUND_SECONDS,
             aovs: integ.aovs.clone(),
         }
+    }
+
+    /// The search-radius cap of a scene that gives none, for k = `knn` (method.md §3.2): from the pixel
+    /// footprint where the delta objects' caustics land ([`defaults::max_radius`]).
+    #[must_use]
+    pub fn default_max_radius(scene: &Scene, knn: u32) -> f32 {
+        let footprint = scene.camera.pixel_footprint_beyond(scene.delta_bounds());
+        defaults::max_radius(footprint, knn, scene.bounds.bounding_sphere().1)
     }
 
     /// The film this render fills: the camera's, with a channel per AOV value.

@@ -110,7 +110,7 @@ fn base_settings(args: &ConvergeArgs, scene: &Scene) -> RenderSettings {
     let mut base = RenderSettings::from_scene(scene);
     base.pass_spp = args.pass_spp;
     base.time_limit = Some(args.time_budget);
-    args.photon.apply(&mut base);
+    args.photon.apply(&mut base, scene);
     if let Some(s) = args.run.seed {
         base.seed = s;
     }

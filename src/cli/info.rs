@@ -128,12 +128,8 @@ fn sensor(camera: &crate::camera::Camera) -> String {
         }
         Projection::Perspective { .. } => {}
     }
-    match p.clip() {
-        Some((near, far)) => {
-            let _ = write!(s, ", clip [{near}, {far}]");
-        }
-        None => s.push_str(", no clip"),
-    }
+    let (near, far) = p.clip();
+    let _ = write!(s, ", clip [{near}, {far}]");
     s
 }
 

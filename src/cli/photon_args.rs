@@ -5,6 +5,7 @@
 use super::args;
 use crate::photon::PhotonBudget;
 use crate::render::RenderSettings;
+use crate::scene::Scene;
 
 /// `--photons | --caustic-photons`, `--knn`, `--max-radius`.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -19,15 +20,17 @@ pub struct PhotonArgs {
     /// k of the k-nearest-neighbour density estimate [default: the scene's, else 50].
     #[arg(long, value_parser = args::knn)]
     pub knn: Option<u32>,
-    /// Maximum search radius of the density estimate, scene units [default: the scene's, else 5% of
-    /// the scene's bounding radius].
+    /// Maximum search radius of the density estimate, scene units [default: the scene's, else 2·√(k/π)
+    /// pixel footprints beyond the mirrors and glass, at most 5% of the scene's bounding radius].
     #[arg(long, value_parser = args::max_radius)]
     pub max_radius: Option<f32>,
 }
 
 impl PhotonArgs {
-    /// Command line over scene file: `--photons` / `--caustic-photons` replace either scene key.
-    pub fn apply(&self, settings: &mut RenderSettings) {
+    /// Command line over scene file: `--photons` / `--caustic-photons` replace either scene key; a `--knn`
+    /// over a default search-radius cap (neither the scene nor `--max-radius` gives one) makes that
+    /// default the new k's.
+    pub fn apply(&self, settings: &mut RenderSettings, scene: &Scene) {
         match (self.photons, self.caustic_photons) {
             (Some(n), _) => settings.photons = PhotonBudget::Emitted(n),
             (None, Some(m)) => settings.photons = PhotonBudget::Stored(m),
@@ -35,6 +38,9 @@ impl PhotonArgs {
         }
         if let Some(k) = self.knn {
             settings.knn = k;
+            if scene.integrator.caustics.max_radius.is_none() {
+                settings.max_radius = RenderSettings::default_max_radius(scene, k);
+            }
         }
         if let Some(r) = self.max_radius {
             settings.max_radius = r;

@@ -595,7 +595,7 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
     if let Some(estimator) = args.estimator {
         settings.estimator = estimator;
     }
-    args.photon.apply(&mut settings);
+    args.photon.apply(&mut settings, scene);
     if let Some(aovs) = &args.aov {
         settings.aovs = aovs.clone();
     }

@@ -341,7 +341,7 @@ pub struct CausticEstimator<'a> {
 /// R the radius of the photons' bounding sphere, ε the f32 epsilon. Each term is a scale the floor must
 /// stay under:
 /// - `10⁻³·r_max` keeps it below `π·r_max²`, the largest area an estimate can have;
-/// - `5·10⁻⁵·R` follows the extent of the photons (10⁻³ of the default `r_max`, 5% of the scene's radius,
+/// - `5·10⁻⁵·R` follows the extent of the photons (10⁻³ of the former default `r_max`, 5% of the scene's radius,
 ///   in an ordinary scene), never the user's search bound alone (a clamp of `π(10⁻³·r_max)²` made every
 ///   estimate of a render with `r_max` = 10⁶ cover 3·10⁶ units², which erased the caustic, issue 13 §2)
 ///   nor the whole scene's size (a dim light of side 2·10³ over a 3-unit scene blurred the caustic away);

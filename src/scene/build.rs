@@ -241,11 +241,8 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     }
     let bounds = mesh.bounds();
     let camera = match (given_camera, &file.sensor) {
-        (Some(camera), Some(s)) => {
+        (Some(camera), Some(_)) => {
             super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
-            if s.kind == SensorType::Perspective {
-                super::clip::check(ctx, &camera, &mesh, bounds, s.near_clip, s.far_clip)?;
-            }
             camera
         }
         _ => camera(ctx, &default_sensor(bounds))?,
@@ -326,12 +323,15 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
 /// Mitsuba 0.6's camera for a scene without a sensor (`Scene::configure`, src/librender/scene.cpp;
 /// Mitsuba 3 has none and renders nothing): a 45° field of view along x, looking along +z from below
 /// the scene's bounding box, far enough for the box's larger extent in x and y to fill the view; the
-/// default film.
+/// default film. Its far clip plane is Mitsuba's default unless the box reaches beyond it: then just past the
+/// box's far corner (depth ≤ distance + diagonal), so that the whole scene is seen.
 fn default_sensor(bounds: Aabb) -> SensorDesc {
     let mut s = SensorDesc { fov: Some(45.0), ..SensorDesc::default() };
     if !bounds.is_empty() {
         let (centre, extents) = (bounds.center(), bounds.extent());
         let distance = extents.x.max(extents.y) / (2.0 * 22.5f32.to_radians().tan());
+        let reach = 1.01 * (distance + extents.length());
+        s.far_clip = (reach > camera::DEFAULT_FAR_CLIP).then_some(reach);
         s.to_world = Some(ToWorld::One(TransformOp {
             translate: Some([centre.x, centre.y, bounds.min.z - distance]),
             ..TransformOp::default()
@@ -395,7 +395,7 @@ fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<(Projection, &'stati
     Ok(match kind {
         SensorType::Perspective => {
             let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;
-            (Projection::Perspective { fov_deg, fov_axis }, key)
+            (Projection::Perspective { fov_deg, fov_axis, near_clip, far_clip }, key)
         }
         SensorType::Thinlens => {
             let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;

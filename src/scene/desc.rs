@@ -101,8 +101,7 @@ pub(crate) struct SensorDesc {
     pub focal_length: Option<String>,
     #[serde(default)]
     pub fov_axis: FovAxis,
-    /// Mitsuba's clip planes: a perspective camera accepts them only where they clip nothing (`clip`);
-    /// thinlens and orthographic clip (`crate::camera`, defaults there).
+    /// Mitsuba's clip planes, depths along the viewing axis (`crate::camera`, defaults there).
     pub near_clip: Option<f32>,
     pub far_clip: Option<f32>,
     /// thinlens only: the aperture's radius (required) and the distance in focus (default far_clip).

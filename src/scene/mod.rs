@@ -22,7 +22,7 @@
 //! type = "perspective"         # perspective (default) | thinlens | orthographic (keys: `crate::camera`)
 //! fov = 39.3077                # degrees, in (0, 180); or focal_length = "50mm" (the default)
 //! fov_axis = "smaller"         # x (default) | y | diagonal | smaller | larger
-//! # near_clip, far_clip        (Mitsuba's; perspective: accepted only where they clip nothing, see `clip`)
+//! # near_clip, far_clip        (Mitsuba's clip planes: depths along the viewing axis, 0.01 and 10⁴ by default)
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! film = { width = 256, height = 256, crop = [0, 0, 256, 128] }   # default 768×576; crop optional
 //!
@@ -108,7 +108,6 @@
 pub mod aov;
 mod attributes;
 mod build;
-mod clip;
 mod convert;
 mod desc;
 mod error;

@@ -50,10 +50,15 @@ pub mod defaults {
         pixels.max(100_000)
     }
 
-    /// Maximum k-NN search radius when none is given: 5% of the radius of the scene's bounding sphere.
+    /// Maximum k-NN search radius when none is given (method.md §3.2): `2·√(k/π)` pixel footprints where
+    /// caustics land, `footprint` the width one pixel covers at the far side of the caustic-making (delta)
+    /// objects' bounding sphere (`crate::camera::Camera::pixel_footprint`), and never more than 5% of the
+    /// scene's bounding radius (the rule before, and the whole rule without a footprint: no delta object).
     #[must_use]
-    pub fn max_radius(bounding_radius: f32) -> f32 {
-        (0.05 * bounding_radius).max(1e-6)
+    pub fn max_radius(footprint: Option<f32>, knn: u32, bounding_radius: f32) -> f32 {
+        let scene_cap = 0.05 * bounding_radius;
+        let camera_cap = footprint.filter(|f| f.is_finite() && *f > 0.0).map(|f| 2.0 * (knn.max(1) as f32 / std::f32::consts::PI).sqrt() * f);
+        camera_cap.map_or(scene_cap, |c| c.min(scene_cap)).max(1e-6)
     }
 }
 
@@ -252,5 +257,26 @@ impl Default for IntegratorSettings {
             caustics: CausticsSettings::default(),
             aovs: super::aov::Aovs::default(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::defaults;
+
+    #[test]
+    fn the_default_search_radius_cap_is_the_smaller_of_the_camera_and_the_scene_rules() {
+        // 2·√(k/π) footprints: 8.0 of them at k = 50.
+        let r = defaults::max_radius(Some(0.01), 50, 100.0);
+        assert!((r - 0.01 * 2.0 * (50.0f32 / std::f32::consts::PI).sqrt()).abs() < 1e-7, "{r}");
+        assert!((r / 0.01 - 7.98).abs() < 0.01);
+        // More neighbours, a wider cap; never beyond 5% of the scene's bounding radius.
+        assert!(defaults::max_radius(Some(0.01), 200, 100.0) > r);
+        assert_eq!(defaults::max_radius(Some(1.0), 50, 10.0), 0.5);
+        // No footprint (no delta object) or a useless one: the scene's rule alone.
+        for f in [None, Some(0.0), Some(f32::NAN), Some(f32::INFINITY)] {
+            assert_eq!(defaults::max_radius(f, 50, 10.0), 0.5);
+        }
+        assert_eq!(defaults::max_radius(None, 50, 0.0), 1e-6);
     }
 }

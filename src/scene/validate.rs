@@ -12,11 +12,6 @@ impl ErrorContext {
         props::finite(v).map_err(|m| self.key_error(key, m))
     }
 
-    /// A finite number > 0.
-    pub(crate) fn positive(&self, key: &str, v: f32, what: &str) -> Result<f32, SceneError> {
-        props::positive(v, what).map_err(|m| self.key_error(key, m))
-    }
-
     /// Three finite numbers.
     pub(crate) fn finite3(&self, key: &str, v: Vec3) -> Result<Vec3, SceneError> {
         props::finite3(v).map_err(|m| self.key_error(key, m))

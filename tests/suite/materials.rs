@@ -187,6 +187,13 @@ fn orthographic_pt_matches_mitsuba() {
 }
 
 #[test]
+fn perspective_clip_pt_matches_mitsuba() {
+    // near_clip cuts a panel in front of the camera, far_clip (a depth along the viewing axis) the floor's far
+    // end and a cube across it.
+    matches_mitsuba("perspective-clip", Estimator::Pt, 512);
+}
+
+#[test]
 fn mesh_attribute_pt_matches_mitsuba() {
     // A PLY's 8-bit vertex colours (interpolated), its per-face colours and a per-face blend weight.
     matches_mitsuba("mesh-attribute", Estimator::Pt, 512);

@@ -359,20 +359,28 @@ fn errors_name_file_line_and_plugin_or_property() {
     assert!(matches!(e, SceneError::XmlSyntax { .. }), "{e}");
 }
 
+/// A perspective sensor's clip planes are Mitsuba's: read as given (defaults 0.01 and 10⁴), a near plane
+/// inside the geometry taken (it clips, `camera::depth_clipped`), 0 < near_clip < far_clip checked.
 #[test]
-fn clip_planes_are_accepted_only_where_they_cut_nothing() {
-    let text = |near: &str| {
+fn perspective_clip_planes_are_read_and_checked() {
+    let text = |clip: &str| {
         format!(
-            "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><float name=\"near_clip\" value=\"{near}\"/>\
+            "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>{clip}\
              <transform name=\"to_world\"><lookat origin=\"0, 0, 5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform></sensor>\
              <shape type=\"cube\"/></scene>"
         )
     };
-    let load = |near: &str| Scene::from_xml_str(&text(near), Path::new("."), Path::new("clip.xml"), &BTreeMap::new());
-    assert!(load("0.01").is_ok());
-    assert!(load("3.5").is_ok(), "the cube's nearest face is 4 away, at most ~20° off axis");
-    let e = load("4.5").err().expect("a near clip inside the cube is refused");
-    assert!(e.to_string().contains("near_clip"), "{e}");
+    let load = |clip: &str| Scene::from_xml_str(&text(clip), Path::new("."), Path::new("clip.xml"), &BTreeMap::new());
+    assert_eq!(load("").unwrap().camera.projection().clip(), (0.01, 1e4));
+    let near = "<float name=\"near_clip\" value=\"4.5\"/><float name=\"far_clip\" value=\"50\"/>";
+    assert_eq!(load(near).unwrap().camera.projection().clip(), (4.5, 50.0), "a near plane inside the cube clips it");
+    for (clip, key) in [
+        ("<float name=\"near_clip\" value=\"0\"/>", "near_clip"),
+        ("<float name=\"near_clip\" value=\"2\"/><float name=\"far_clip\" value=\"1\"/>", "far_clip"),
+    ] {
+        let e = load(clip).err().expect("refused");
+        assert!(e.to_string().contains(key) && e.to_string().contains("clip.xml"), "{e}");
+    }
 }
 
 /// A scene written for Mitsuba 0.6 (`legacy-0.6.xml`: camelCase names, `<lookAt>`, `<srgb>`, an HTML colour,

@@ -76,6 +76,8 @@ fn scene(p: &Params) -> String {
     let tail = format!("{{ scale = {s} }}, {{ translate = [{d}, 0, 0] }}");
     let (light_y, light_side) = if p.light_in_sphere { (0.45, p.light_half.min(0.1)) } else { (1.2, p.light_half) };
     let max_radius = p.max_radius.map_or(String::new(), |r| format!("max_radius = {}\n", r * s));
+    // Mitsuba's default clip planes in the scene's units (0.01 and 10⁴ at scale 1): the same scene in other units.
+    let (near_clip, far_clip) = (0.01 * s, 1e4 * s);
     let inner = p.inner_sphere.as_ref().map_or(String::new(), |b| {
         format!("[[shape]]\ntype = \"sphere\"\ncenter = {}\nradius = {}\nrings = 12\nsegments = 24\nbsdf = {b}\n", place(0.0, 0.4, 0.0), 0.15 * s)
     });
@@ -94,6 +96,8 @@ knn = {knn}
 [sensor]
 fov = 50
 fov_axis = "x"
+near_clip = {near_clip}
+far_clip = {far_clip}
 to_world = {{ look_at = {{ origin = {cam}, target = {target}, up = [0, 1, 0] }} }}
 film = {{ width = {w}, height = {h}, rfilter = {{ type = "box" }} }}
 

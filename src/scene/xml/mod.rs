@@ -60,10 +60,8 @@
 //!
 //! **Differences from Mitsuba.** Spectrum plugins (`<spectrum type="blackbody">`, ...) are refused, as
 //! Mitsuba's RGB variants cannot render them (its spectral variants can; caustica renders in RGB). None in
-//! the film: a film without `<rfilter>` gets Mitsuba's default, the Gaussian of σ = 0.5. caustica's perspective
-//! camera has no clip planes: a `near_clip` or `far_clip` is accepted only where it cuts no geometry
-//! (`build`), and an absent one is not Mitsuba's default (0.01 and 10⁴) but none at all; `thinlens` and
-//! `orthographic` clip as Mitsuba does, with its defaults.
+//! the film: a film without `<rfilter>` gets Mitsuba's default, the Gaussian of σ = 0.5. Every sensor clips
+//! as Mitsuba's does (`near_clip`, `far_clip`: depths along the viewing axis, 0.01 and 10⁴ by default).
 //!
 //! **Errors.** Anything not supported — an element, a plugin type, a property, an attribute, a `$name`
 //! without value — is an error naming the file, the line and the plugin or property; nothing is dropped.

@@ -91,12 +91,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         "emitter" => plugins::keys(Role::Emitter, kind),
         "rfilter" => plugins::keys(Role::RFilter, kind),
         "texture" => plugins::keys(Role::Texture, kind),
-        "sensor" => match kind {
-            "perspective" => Some(vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"]),
-            "thinlens" => Some(vec!["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world", "aperture_radius", "focus_distance"]),
-            "orthographic" => Some(vec!["near_clip", "far_clip", "to_world"]),
-            _ => None,
-        },
+        "sensor" => crate::camera::SENSORS.iter().find(|(name, _)| *name == kind).map(|(_, keys)| keys.to_vec()),
         "film" => (kind == "hdrfilm")
             .then(|| vec!["width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height"]),
         "sampler" => SAMPLER_TYPES.contains(&kind).then(|| vec!["sample_count", "seed"]),

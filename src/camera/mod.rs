@@ -13,7 +13,8 @@
 //! # thinlens only:
 //! # aperture_radius = 0.05   # required (Mitsuba has no default), ≥ 0; 0 is a pinhole
 //! # focus_distance = 4.0     # distance of the plane in focus along the viewing axis; default far_clip
-//! # thinlens and orthographic: Mitsuba's clip planes, near_clip = 0.01 and far_clip = 10000 by default
+//! near_clip = 0.01         # every sensor: Mitsuba's clip planes (depths along the viewing axis), 0 < near < far
+//! far_clip = 10000          # (defaults 0.01 and 10⁴)
 //! ```
 //!
 //! Conventions (Mitsuba's): in camera space the camera looks along +z with +y up and **+x to the left of the
@@ -21,30 +22,30 @@
 //! top-left corner of the full film and y growing downwards; the pixel (i, j) covers [i, i+1) × [j, j+1).
 //! The crop window only selects which pixels are rendered; rays are those of the full film.
 //!
-//! The three projections ([`Projection`]):
-//! - `perspective`: a pinhole; rays start at the camera position and are unbounded. Its clip planes are
-//!   accepted only where they clip nothing (`scene::clip`), so its images stay those of earlier versions.
-//! - `thinlens` (Mitsuba's src/sensors/thinlens.cpp, `sample_ray`): the film point is seen through a
-//!   circular aperture of radius `aperture_radius` in the camera's z = 0 plane. A lens sample (the
-//!   concentric disk map of one 2-D dimension of the sample, drawn right after the pixel position) picks a
-//!   point on the aperture; the ray goes from it to where the pinhole ray of the film point meets the plane
-//!   z = `focus_distance`, so every lens sample of a film point meets there (that plane is in focus). The
-//!   ray is then cut to depths [near_clip, far_clip] along the camera's z. Mitsuba refuses a `to_world` with
-//!   a scale (its `has_scale`: any product of two rows of the linear part off the identity's by > 10⁻³);
-//!   so does caustica.
-//! - `orthographic` (Mitsuba's src/sensors/orthographic.cpp with `orthographic_projection` of
-//!   include/mitsuba/render/sensor.h): the full film covers x ∈ [-1, 1] (left to right: +1 to -1) and
-//!   y ∈ [-h/w, h/w] of the camera plane, at depth `near_clip`; every ray leaves its film point along the
-//!   camera's +z, normalised in world space, for a length `far_clip − near_clip`. `to_world` may scale: a
-//!   scale of 10 in x and y makes the view 20 units wide.
+//! The clip planes, one rule for the three (`depth_clipped`, after Mitsuba's `sample_ray` of each sensor): a
+//! camera ray keeps its unclipped start (the pinhole, the lens point, the film point on the camera plane) and
+//! is valid only for the `t` where its depth along the camera's viewing axis (camera-space z) lies in
+//! [near_clip, far_clip] — Mitsuba shifts the origin to the near plane and shortens `maxt` instead, the same
+//! points. Depth, not distance along the ray: the far plane is flat, so a corner ray reaches farther.
+//!
+//! The three projections ([`Projection`]), one file each with its keys, its checks and its rays:
+//! `perspective` (a pinhole), `thinlens` (an aperture and a focal plane), `orthographic` (parallel rays from
+//! a scalable camera plane); [`SENSORS`] lists them for the scene readers' key check.
 //!
 //! No code connects paths to the camera (photons do not hit it, no light tracing), so the sensors need
 //! no importance or position pdf.
 
+mod orthographic;
+mod perspective;
+mod thinlens;
+
 use crate::film::PixelFilter;
 use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
 use crate::sampler::Sampler;
-use crate::sampling::warp::square_to_uniform_disk_concentric;
+
+/// Every sensor type: Mitsuba's name and the keys it reads (the XML reader's key check, `scene::xml`).
+pub(crate) const SENSORS: &[(&str, &[&str])] =
+    &[(perspective::NAME, perspective::KEYS), (thinlens::NAME, thinlens::KEYS), (orthographic::NAME, orthographic::KEYS)];
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -91,7 +92,7 @@ pub const DEFAULT_FAR_CLIP: f32 = 1e4;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
     /// Mitsuba's `perspective`: a pinhole, `fov` degrees along `fov_axis`.
-    Perspective { fov_deg: f32, fov_axis: FovAxis },
+    Perspective { fov_deg: f32, fov_axis: FovAxis, near_clip: f32, far_clip: f32 },
     /// Mitsuba's `thinlens`: a perspective view through a circular aperture, in focus at `focus_distance`.
     ThinLens {
         fov_deg: f32,
@@ -110,9 +111,9 @@ impl Projection {
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
-            Projection::Perspective { .. } => "perspective",
-            Projection::ThinLens { .. } => "thinlens",
-            Projection::Orthographic { .. } => "orthographic",
+            Projection::Perspective { .. } => perspective::NAME,
+            Projection::ThinLens { .. } => thinlens::NAME,
+            Projection::Orthographic { .. } => orthographic::NAME,
         }
     }
 
@@ -120,17 +121,18 @@ impl Projection {
     #[must_use]
     pub fn fov(&self) -> Option<(f32, FovAxis)> {
         match *self {
-            Projection::Perspective { fov_deg, fov_axis } | Projection::ThinLens { fov_deg, fov_axis, .. } => Some((fov_deg, fov_axis)),
+            Projection::Perspective { fov_deg, fov_axis, .. } | Projection::ThinLens { fov_deg, fov_axis, .. } => Some((fov_deg, fov_axis)),
             Projection::Orthographic { .. } => None,
         }
     }
 
-    /// The clip planes (near, far), where the projection has them (not perspective: see the module docs).
+    /// The clip planes (near, far).
     #[must_use]
-    pub fn clip(&self) -> Option<(f32, f32)> {
+    pub fn clip(&self) -> (f32, f32) {
         match *self {
-            Projection::Perspective { .. } => None,
-            Projection::ThinLens { near_clip, far_clip, .. } | Projection::Orthographic { near_clip, far_clip } => Some((near_clip, far_clip)),
+            Projection::Perspective { near_clip, far_clip, .. }
+            | Projection::ThinLens { near_clip, far_clip, .. }
+            | Projection::Orthographic { near_clip, far_clip } => (near_clip, far_clip),
         }
     }
 }
@@ -194,9 +196,10 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// A perspective camera with the full film as its crop window.
+    /// A perspective camera with Mitsuba's default clip planes and the full film as its crop window.
     pub fn new(camera_to_world: Mat4, fov_deg: f32, fov_axis: FovAxis, width: u32, height: u32) -> Result<Camera, CameraError> {
-        Camera::with_projection(camera_to_world, Projection::Perspective { fov_deg, fov_axis }, width, height)
+        let projection = Projection::Perspective { fov_deg, fov_axis, near_clip: DEFAULT_NEAR_CLIP, far_clip: DEFAULT_FAR_CLIP };
+        Camera::with_projection(camera_to_world, projection, width, height)
     }
 
     /// A camera of any projection with the full film as its crop window; its parameters checked here.
@@ -207,21 +210,15 @@ impl Camera {
             }
         }
         if let Projection::ThinLens { aperture_radius, focus_distance, .. } = projection {
-            if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
-                return Err(CameraError::ApertureRadius(aperture_radius));
-            }
-            if !(focus_distance.is_finite() && focus_distance > 0.0) {
-                return Err(CameraError::FocusDistance(focus_distance));
-            }
+            thinlens::check(aperture_radius, focus_distance)?;
         }
         // Mitsuba's `ProjectiveCamera` constructor: 0 < near_clip < far_clip.
-        if let Some((near, far)) = projection.clip() {
-            if !(near.is_finite() && near > 0.0) {
-                return Err(CameraError::NearClip(near));
-            }
-            if !(far.is_finite() && far > near) {
-                return Err(CameraError::FarClip { near, far });
-            }
+        let (near, far) = projection.clip();
+        if !(near.is_finite() && near > 0.0) {
+            return Err(CameraError::NearClip(near));
+        }
+        if !(far.is_finite() && far > near) {
+            return Err(CameraError::FarClip { near, far });
         }
         let basis = Mat3::from_mat4(camera_to_world);
         let det = basis.determinant();
@@ -308,8 +305,7 @@ impl Camera {
         let (w, h) = (width as f32, height as f32);
         self.half = match self.projection.fov() {
             Some((fov_deg, fov_axis)) => tan_half(fov_deg, fov_axis, w, h),
-            // Mitsuba's `orthographic_projection`: x spans [-1, 1], y the same scaled by h/w.
-            None => Vec2::new(1.0, h / w),
+            None => orthographic::half(w, h),
         };
         self.width = width;
         self.height = height;
@@ -334,6 +330,35 @@ impl Camera {
         Ok(())
     }
 
+    /// The width one pixel covers at `distance` from the camera (method.md §3.2): how far apart the rays
+    /// through the two edges of the film's centre pixel are there, the larger of its x and y edges (a
+    /// perspective or thin-lens pixel's angle times the distance; an orthographic pixel's size), plus
+    /// for a thin lens the diameter of its circle of confusion there, `2·a·|d − f|/f` (aperture radius a,
+    /// focus distance f: the lens's rays through one film point cross at depth f).
+    #[must_use]
+    pub fn pixel_footprint(&self, distance: f32) -> f32 {
+        let (cx, cy) = (0.5 * self.width as f32, 0.5 * self.height as f32);
+        let spread = |a: Ray, b: Ray| a.at(distance).distance(b.at(distance));
+        let x = spread(self.generate_ray(cx - 0.5, cy), self.generate_ray(cx + 0.5, cy));
+        let y = spread(self.generate_ray(cx, cy - 0.5), self.generate_ray(cx, cy + 0.5));
+        let blur = match self.projection {
+            Projection::ThinLens { aperture_radius, focus_distance, .. } => thinlens::blur(aperture_radius, focus_distance, distance),
+            _ => 0.0,
+        };
+        x.max(y) + blur
+    }
+
+    /// [`Camera::pixel_footprint`] at the far side of the bounding sphere of `bounds` (where the caustics
+    /// of the objects in it land, seen from the camera); `None` for empty bounds.
+    #[must_use]
+    pub fn pixel_footprint_beyond(&self, bounds: crate::math::Aabb) -> Option<f32> {
+        if bounds.is_empty() {
+            return None;
+        }
+        let (centre, radius) = bounds.bounding_sphere();
+        Some(self.pixel_footprint(centre.distance(self.origin) + radius))
+    }
+
     /// Whether [`Camera::sample_ray`] draws a lens sample (thin lens only).
     #[must_use]
     pub fn needs_lens_sample(&self) -> bool {
@@ -350,7 +375,7 @@ impl Camera {
     }
 
     /// The ray through film position (`film_x`, `film_y`) and the centre of the lens. The direction is
-    /// unit length; a perspective ray has `t ∈ [0, ∞)`, the others start at the near clip plane.
+    /// unit length; the ray starts at the camera (or its film point) and is valid between the clip planes.
     #[must_use]
     pub fn generate_ray(&self, film_x: f32, film_y: f32) -> Ray {
         self.ray_through(film_x, film_y, Vec2::splat(0.5))
@@ -368,28 +393,24 @@ impl Camera {
         // depth 1 (perspective, thin lens) or on the camera plane (orthographic).
         let film = Vec2::new(-ndc_x * self.half.x, -ndc_y * self.half.y);
         match self.projection {
-            Projection::Perspective { .. } => {
-                let dir = (self.basis * film.extend(1.0)).normalize();
-                Ray::new(self.origin, dir)
-            }
+            Projection::Perspective { near_clip, far_clip, .. } => perspective::ray(self, film, near_clip, far_clip),
             Projection::ThinLens { aperture_radius, focus_distance, near_clip, far_clip, .. } => {
-                // thinlens.cpp `sample_ray`: from the aperture point to where the pinhole ray meets the
-                // focal plane, cut to the depths [near_clip, far_clip].
-                let aperture = (aperture_radius * square_to_uniform_disk_concentric(lens)).extend(0.0);
-                let focus = film.extend(1.0) * focus_distance;
-                let d = (focus - aperture).normalize();
-                let dir = (self.basis * d).normalize();
-                let (near_t, far_t) = (near_clip / d.z, far_clip / d.z);
-                let origin = self.camera_to_world.transform_point3(aperture) + dir * near_t;
-                Ray::segment(origin, dir, 0.0, far_t - near_t)
+                thinlens::ray(self, film, lens, aperture_radius, focus_distance, near_clip, far_clip)
             }
-            Projection::Orthographic { near_clip, far_clip } => {
-                // orthographic.cpp `sample_ray`: the film point on the near plane, along +z.
-                let origin = self.camera_to_world.transform_point3(film.extend(near_clip));
-                Ray::segment(origin, self.ortho_dir, 0.0, far_clip - near_clip)
-            }
+            Projection::Orthographic { near_clip, far_clip } => orthographic::ray(self, film, near_clip, far_clip),
         }
     }
+}
+
+/// The clip rule of every projection (Mitsuba's `near_clip`/`far_clip`, the `sample_ray` of
+/// src/sensors/perspective.cpp, thinlens.cpp and orthographic.cpp): a camera ray keeps its unclipped start
+/// (the pinhole, the lens point, the film point on the camera plane) and is valid only where its depth along
+/// the camera's viewing axis (camera-space z) lies in [near_clip, far_clip] — a depth, not a distance along
+/// the ray, so the far plane is flat. `v` is the ray's direction in world space, `v_depth` the camera-space
+/// depth it gains per unit of `v` (the start's depth is 0); the ray's direction is `v` normalised.
+fn depth_clipped(start: Vec3, v: Vec3, v_depth: f32, near_clip: f32, far_clip: f32) -> Ray {
+    let per_depth = v.length() / v_depth;
+    Ray::segment(start, v.normalize(), near_clip * per_depth, far_clip * per_depth)
 }
 
 /// tan of half the field of view along film x and y for a `w × h` film: `fov` on its axis, the other in
@@ -536,10 +557,11 @@ mod tests {
             for u in lens_samples() {
                 let r = lens.ray_through(x, y, u);
                 assert!(r.dir.abs_diff_eq(p.dir, 1e-6), "{x},{y} {u}: {} vs {}", r.dir, p.dir);
-                // The same line, started at the near clip plane (depth 0.01 along the axis).
-                let depth = (r.origin - p.origin).dot(pinhole.generate_ray(32.0, 24.0).dir);
-                assert!((depth - DEFAULT_NEAR_CLIP).abs() < 1e-5, "{depth}");
-                assert!(r.origin.abs_diff_eq(p.at((r.origin - p.origin).length()), 1e-5));
+                // The same ray, clipped alike: from the near clip plane (depth 0.01 along the axis) to the far.
+                assert_eq!(r.origin, p.origin);
+                assert!((r.t_min / p.t_min - 1.0).abs() < 1e-5 && (r.t_max / p.t_max - 1.0).abs() < 1e-5, "{r:?} {p:?}");
+                let depth = (r.at(r.t_min) - p.origin).dot(pinhole.generate_ray(32.0, 24.0).dir);
+                assert!((depth - DEFAULT_NEAR_CLIP).abs() < 1e-6, "{depth}");
             }
         }
     }
@@ -569,8 +591,9 @@ mod tests {
             let spread = lens_samples().map(|u| cam.ray_through(x, y, u).origin.distance(o)).fold(0.0f32, f32::max);
             assert!(spread > 0.24 && spread < 0.26, "{spread}");
         }
-        // The far clip plane ends the rays: depth 10⁴ along the axis.
+        // The clip planes bound the rays: depths 0.01 and 10⁴ along the axis.
         let r = cam.ray_through(0.0, 0.0, Vec2::new(0.1, 0.9));
+        assert!(((r.at(r.t_min) - o).dot(axis) - DEFAULT_NEAR_CLIP).abs() < 1e-5);
         assert!(((r.at(r.t_max) - o).dot(axis) - DEFAULT_FAR_CLIP).abs() < 1.0);
     }
 
@@ -587,19 +610,94 @@ mod tests {
         let corners = [(0.0, 0.0), (64.0, 0.0), (0.0, 48.0), (64.0, 48.0)].map(|(x, y)| cam.generate_ray(x, y));
         for r in cam_rays(&cam).iter().chain(&corners) {
             assert!(r.dir.abs_diff_eq(dir, 1e-6), "{}", r.dir);
-            // Every ray starts on the near plane, 0.5 ahead of the camera, and runs to the far one.
-            assert!(((r.origin - o).dot(dir) - 0.5).abs() < 1e-5);
-            assert!((r.t_max - 99.5).abs() < 1e-4);
+            // Every ray starts on the camera plane and is valid from the near plane, 0.5 ahead of the
+            // camera, to the far one.
+            assert!((r.origin - o).dot(dir).abs() < 1e-5);
+            assert!(((r.at(r.t_min) - o).dot(dir) - 0.5).abs() < 1e-5);
+            assert!((r.t_max - r.t_min - 99.5).abs() < 1e-4);
         }
         // The film spans 20 units across (x of the image: the camera's left is world -x here) and 15 up
         // (z, the up vector), centred on the axis.
         let (tl, tr, bl) = (corners[0].origin, corners[1].origin, corners[2].origin);
         assert!((tr - tl).abs_diff_eq(Vec3::new(20.0, 0.0, 0.0), 1e-4), "{}", tr - tl);
         assert!((tl - bl).abs_diff_eq(Vec3::new(0.0, 0.0, 15.0), 1e-4), "{}", tl - bl);
-        assert!(cam.generate_ray(32.0, 24.0).origin.abs_diff_eq(o + 0.5 * dir, 1e-5));
+        assert!(cam.generate_ray(32.0, 24.0).origin.abs_diff_eq(o, 1e-5));
         // Neither projection draws a lens sample but the thin lens.
         assert!(!cam.needs_lens_sample() && !Camera::new(m, 40.0, FovAxis::X, 4, 4).unwrap().needs_lens_sample());
         assert!(thin_lens(place, 0.1, 1.0).needs_lens_sample());
+    }
+
+    #[test]
+    fn perspective_rays_are_clipped_by_depth_along_the_viewing_axis() {
+        // perspective.cpp: near_t = near_clip / d.z and far_t = far_clip / d.z for the camera-space unit
+        // direction d; caustica keeps the origin at the pinhole and bounds t instead.
+        let (o, target) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(-2.0, 0.5, 0.0));
+        let m = look_at(o, target, Vec3::Y).unwrap();
+        let axis = (target - o).normalize();
+        let p = Projection::Perspective { fov_deg: 60.0, fov_axis: FovAxis::X, near_clip: 0.5, far_clip: 7.0 };
+        let cam = Camera::with_projection(m, p, 64, 48).unwrap();
+        let pinhole = Camera::new(m, 60.0, FovAxis::X, 64, 48).unwrap();
+        for (x, y) in [(0.0, 0.0), (32.0, 24.0), (63.5, 10.25), (64.0, 48.0)] {
+            let (r, q) = (cam.generate_ray(x, y), pinhole.generate_ray(x, y));
+            // The same origin and direction, bit for bit, as the default clip planes' ray.
+            assert_eq!((r.origin, r.dir), (q.origin, q.dir));
+            let cos = r.dir.dot(axis);
+            assert!((r.t_min - 0.5 / cos).abs() < 1e-5 && (r.t_max - 7.0 / cos).abs() < 1e-4, "{r:?}");
+            assert!(((r.at(r.t_min) - o).dot(axis) - 0.5).abs() < 1e-5);
+            assert!(((r.at(r.t_max) - o).dot(axis) - 7.0).abs() < 1e-4);
+        }
+        // A uniform scale in to_world scales the depths (they are camera-space depths, as Mitsuba's).
+        let scaled = Camera::with_projection(m * Mat4::from_scale(Vec3::splat(2.0)), p, 64, 48).unwrap();
+        let r = scaled.generate_ray(32.0, 24.0);
+        assert!((r.t_min - 1.0).abs() < 1e-5 && (r.t_max - 14.0).abs() < 1e-4, "{r:?}");
+    }
+
+    #[test]
+    fn pixel_footprints() {
+        let m = look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-2.0, 0.5, 0.0), Vec3::Y).unwrap();
+        // Perspective: d·2·tan(fov/2)/W, the x axis the wider one here (fov on x).
+        let cam = Camera::new(m, 40.0, FovAxis::X, 640, 480).unwrap();
+        let want = |d: f32| d * 2.0 * (20f32.to_radians()).tan() / 640.0;
+        for d in [0.5, 10.0, 1000.0] {
+            assert!((cam.pixel_footprint(d) / want(d) - 1.0).abs() < 1e-3, "{d}: {} vs {}", cam.pixel_footprint(d), want(d));
+        }
+        // A thin lens adds its circle of confusion 2·a·|d − f|/f: none on the focal plane.
+        let lens = thin_lens(m, 0.1, 5.0);
+        let pin = Camera::new(m, 40.0, FovAxis::X, 64, 48).unwrap();
+        assert!((lens.pixel_footprint(5.0) - pin.pixel_footprint(5.0)).abs() < 1e-6);
+        assert!((lens.pixel_footprint(15.0) - pin.pixel_footprint(15.0) - 2.0 * 0.1 * 10.0 / 5.0).abs() < 1e-3);
+        // Orthographic: the pixel's size, whatever the distance (a view 20 units wide over 64 pixels).
+        let ortho = Projection::Orthographic { near_clip: 0.5, far_clip: 100.0 };
+        let cam = Camera::with_projection(m * Mat4::from_scale(Vec3::new(10.0, 10.0, 1.0)), ortho, 64, 48).unwrap();
+        assert!((cam.pixel_footprint(1.0) - 20.0 / 64.0).abs() < 1e-5 && (cam.pixel_footprint(50.0) - 20.0 / 64.0).abs() < 1e-4);
+        // Beyond a box: at the far side of its bounding sphere; nothing for an empty box.
+        let cam = Camera::new(look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y).unwrap(), 40.0, FovAxis::X, 100, 100).unwrap();
+        let b = crate::math::Aabb::EMPTY.grow(Vec3::splat(-1.0)).grow(Vec3::splat(1.0));
+        let far = 10.0 + 3f32.sqrt();
+        assert!((cam.pixel_footprint_beyond(b).unwrap() - cam.pixel_footprint(far)).abs() < 1e-6);
+        assert_eq!(cam.pixel_footprint_beyond(crate::math::Aabb::EMPTY), None);
+    }
+
+    #[test]
+    fn an_xml_film_crop_reaches_the_camera_and_the_film() {
+        // Mitsuba's hdrfilm (src/render/film.cpp): crop_offset_x/y default to 0, crop_width/height to the
+        // rest of the film, and the window must lie within the film.
+        let load = |crop: &str| {
+            let xml = format!(
+                "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"64\"/>\
+                 <integer name=\"height\" value=\"48\"/>{crop}</film></sensor><shape type=\"cube\"/></scene>"
+            );
+            crate::scene::Scene::from_xml_str(&xml, std::path::Path::new("."), std::path::Path::new("crop.xml"), &Default::default())
+        };
+        let int = |name: &str, v: u32| format!("<integer name=\"{name}\" value=\"{v}\"/>");
+        let scene = load(&format!("{}{}{}", int("crop_offset_x", 8), int("crop_offset_y", 4), int("crop_width", 16))).unwrap();
+        assert_eq!(scene.camera.crop(), Rect::new(8, 4, 24, 48));
+        let film = crate::film::Film::for_camera(&scene.camera).unwrap();
+        assert_eq!((film.width(), film.crop()), (64, Rect::new(8, 4, 24, 48)));
+        assert_eq!(load(&int("crop_height", 10)).unwrap().camera.crop(), Rect::new(0, 0, 64, 10));
+        assert_eq!(load("").unwrap().camera.crop(), Rect::new(0, 0, 64, 48));
+        let e = load(&format!("{}{}", int("crop_offset_x", 60), int("crop_width", 8))).err().expect("outside the film");
+        assert!(e.to_string().contains("crop.xml") && e.to_string().contains("crop"), "{e}");
     }
 
     fn cam_rays(cam: &Camera) -> Vec<Ray> {
