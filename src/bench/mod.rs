@@ -263,7 +263,7 @@ fn build_median(pool: &ThreadPool, kind: BackendKind, mesh: &TriangleMesh) -> an
     for _ in 0..RUNS {
         drop(accel.take());
         let start = Instant::now();
-        accel = Some(pool.install(|| build_accel(kind, &mesh.positions, &mesh.indices))?);
+        accel = Some(pool.install(|| build_accel(kind, &crate::accel::Geometry::soup(&mesh.positions, &mesh.indices)))?);
         times.push(start.elapsed().as_secs_f64());
     }
     let accel = accel.expect("RUNS > 0 builds ran");
@@ -424,7 +424,7 @@ mod tests {
 
     #[test]
     fn agreement_counts_disagreements() {
-        let h = |t: f32, prim: u32| Some(Hit { t, prim, u: 0.0, v: 0.0 });
+        let h = |t: f32, prim: u32| Some(Hit { t, prim, u: 0.0, v: 0.0, inst: crate::accel::FLAT });
         assert!(hits_agree(None, None) && hits_agree(h(1.0, 3), h(1.1, 3)) && hits_agree(h(1.0, 3), h(1.00005, 4)));
         assert!(!hits_agree(h(1.0, 3), None) && !hits_agree(h(1.0, 3), h(1.001, 4)));
         let a = Answers {

@@ -6,7 +6,8 @@
 //!
 //! A point at distance `d` from the camera seen through the film makes an angle θ with the viewing axis of
 //! at most θ_max (the angle of the film's corner rays), so its depth `d·cos θ` lies in `[d·cos θ_max, d]`.
-//! With `d_min` the distance from the camera to the nearest triangle and `d_max` the distance to the
+//! With `d_min` the distance from the camera to the nearest triangle (to an instance's world box, a
+//! lower bound, for instanced shapes) and `d_max` the distance to the
 //! farthest corner of the scene's bounds, no visible point is clipped when
 //! `near_clip ≤ d_min·cos θ_max` and `far_clip ≥ d_max`.
 
@@ -20,6 +21,8 @@ pub(crate) fn check(
     ctx: &ErrorContext,
     camera: &Camera,
     mesh: &TriangleMesh,
+    flat: usize,
+    instance_boxes: &[Aabb],
     bounds: Aabb,
     near: Option<f32>,
     far: Option<f32>,
@@ -37,7 +40,7 @@ pub(crate) fn check(
             return Err(ctx.key_error(far_key, format!("far_clip ({f}) must be greater than near_clip ({n})")));
         }
     }
-    if mesh.indices.is_empty() {
+    if flat == 0 && instance_boxes.is_empty() {
         return Ok(());
     }
     let origin = camera.position();
@@ -48,8 +51,9 @@ pub(crate) fn check(
         .map(|&(x, y)| camera.generate_ray(x, y).dir.dot(axis))
         .fold(1.0f32, f32::min);
     if let Some(n) = near {
-        let d_min = (0..mesh.triangle_count())
+        let d_min = (0..flat)
             .map(|i| point_triangle_distance(origin, mesh.triangle(i)))
+            .chain(instance_boxes.iter().map(|b| (b.min - origin).max(origin - b.max).max(Vec3::ZERO).length()))
             .fold(f32::INFINITY, f32::min);
         let limit = d_min * cos_max;
         if n > limit {
