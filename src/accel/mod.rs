@@ -105,6 +105,8 @@ pub(crate) fn batch_if_all<T>(rays: &[Ray], out: &mut [T], qualifies: impl Fn(&R
     }
 }
 
+const _: () = assert!(size_of::<Hit>() == 20);
+
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -5,7 +5,7 @@
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B) — a shapegroup's
-//!   triangles once, however many instances place it — and each instance (`accel::Instance`, 100 B);
+//!   triangles once, however many instances place it — and each instance (`accel::Instance`, 144 B);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B), and with a
 //!   filter wider than a pixel one [`PixelWeight`] more (64 B); and what a pass keeps per pixel from one
 //!   round to the next (`render::round`): two tile buffers' sums (40 B each, 72 B more with a wide

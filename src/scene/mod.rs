@@ -1,5 +1,6 @@
-//! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one flattened triangle soup with a material per
-//! triangle, the lights, the camera and the render settings.
+//! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one triangle soup with a material per triangle
+//! (the flattened shapes in world space, then each instanced shapegroup's shapes once, in object space,
+//! placed by instances), the lights, the camera and the render settings.
 //!
 //! Every table rejects unknown keys (`deny_unknown_fields`) and keys that do not apply to its `type`. Errors
 //! ([`SceneError`]) name the file, the key path (`shape[3].bsdf.reflectance`) with its line, and the
@@ -66,6 +67,14 @@
 //! filename = "meshes/scene.serialized"
 //! shape_index = 2              # which shape of the file, default 0 (the first)
 //! face_normals = false         # as for obj / ply
+//!
+//! [shapegroup.pillar]         # Mitsuba's shapegroup: shapes stored once, rendered only where instances
+//! shape = [ { type = "cube", bsdf = "white" } ]   # place them (module `instances`)
+//!
+//! [[shape]]
+//! type = "instance"
+//! shapegroup = "pillar"
+//! to_world = [ { scale = [0.1, 1, 0.1] }, { translate = [0.7, 0, -0.7] } ]   # any invertible affine map
 //!
 //! [[emitter]]
 //! type = "envmap"

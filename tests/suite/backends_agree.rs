@@ -14,7 +14,7 @@ use caustica::mesh::{shapes, TriangleMesh};
 use std::path::Path;
 
 fn load(file: &str) -> TriangleMesh {
-    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &Default::default()).expect("load").1
+    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &Default::default()).expect("load").1.mesh
 }
 
 fn check(file: &str, n: usize) {
