@@ -328,6 +328,13 @@ pub struct Rect {
     pub y1: u32,
 }
 
+/// `x0,y0,x1,y1`: as `--crop` takes it, and as every message shows a window.
+impl std::fmt::Display for Rect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
+    }
+}
+
 impl Rect {
     #[must_use]
     pub fn new(x0: u32, y0: u32, x1: u32, y1: u32) -> Self {

@@ -81,13 +81,9 @@ pub fn describe(scene: &Scene) -> String {
     let _ = writeln!(s, "{}", scene.path.display());
     let _ = writeln!(
         s,
-        "  film        {}×{} (crop {},{},{},{}: {} pixels), {} spp, seed {}",
+        "  film        {}×{} (crop {crop}: {} pixels), {} spp, seed {}",
         scene.camera.width(),
         scene.camera.height(),
-        crop.x0,
-        crop.y0,
-        crop.x1,
-        crop.y1,
         crop.area(),
         settings.spp,
         settings.seed
@@ -196,10 +192,11 @@ fn instances(scene: &Scene) -> String {
 fn memory(scene: &Scene, settings: &RenderSettings) -> String {
     let m = MemoryEstimate::of(scene, settings);
     format!(
-        "about {} (mesh {}, film {}, photon map {}; the intersection backend's structure comes on top)",
+        "about {} (mesh {}, film {}, photon map {}, images {}; the intersection backend's structure comes on top)",
         mb(m.total()),
         mb(m.mesh),
         mb(m.film),
-        mb(m.photon_map)
+        mb(m.photon_map),
+        mb(m.images)
     )
 }

@@ -419,13 +419,9 @@ fn describe_settings(scene: &Scene, settings: &RenderSettings, backend: BackendK
         None => format!("{} spp in {} pass(es)", settings.spp, settings.pass_count().unwrap_or(1)),
     };
     format!(
-        "{}x{} film, crop {},{},{},{}; {spp}, rounds of {} s; estimator {}, {}, knn {}, max radius {}; seed {}; {} threads, backend {}",
+        "{}x{} film, crop {crop}; {spp}, rounds of {} s; estimator {}, {}, knn {}, max radius {}; seed {}; {} threads, backend {}",
         scene.camera.width(),
         scene.camera.height(),
-        crop.x0,
-        crop.y0,
-        crop.x1,
-        crop.y1,
         settings.round_seconds,
         settings.estimator.name(),
         describe_photons(settings.photons),
@@ -570,7 +566,7 @@ fn load_scene(args: &RenderArgs, path: &Path) -> anyhow::Result<Scene> {
     if let Some(c) = args.crop {
         let (w, h) = (scene.camera.width(), scene.camera.height());
         if c.x1 > w || c.y1 > h {
-            bail!("--crop {},{},{},{}: outside the {w}x{h} film", c.x0, c.y0, c.x1, c.y1);
+            bail!("--crop {c}: outside the {w}x{h} film");
         }
         scene.camera.set_crop(c).map_err(|e| anyhow::anyhow!("--crop: {e}"))?;
     }

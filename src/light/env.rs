@@ -153,6 +153,12 @@ impl EnvMap {
         })
     }
 
+    /// Bytes the map keeps: its radiance per pixel and its sampling distribution.
+    #[must_use]
+    pub fn memory_bytes(&self) -> u64 {
+        (self.pixels.len() * size_of::<Vec3>()) as u64 + self.distribution.as_ref().map_or(0, Distribution2D::memory_bytes)
+    }
+
     /// Image width in pixels.
     #[must_use]
     pub fn width(&self) -> usize {

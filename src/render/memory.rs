@@ -22,6 +22,9 @@
 //!   stored more than once, so this is an estimate, not a bound. The occupancy grid's bits (at most 132³
 //!   bits, 280 KiB) and the counts table's 2¹⁶ cells that any map may have (256 KiB) are not counted.
 //!
+//! - the images: textures' texels (each image once) and environment maps (`Scene::image_bytes`, known from
+//!   each image's header before it was decoded: `texture::ImageCache` refuses one that does not fit).
+//!
 //! The intersection backend's own structure is not counted (it is built from the mesh and is about its
 //! size for both backends).
 //!
@@ -51,6 +54,7 @@ pub struct MemoryEstimate {
     pub mesh: u64,
     pub film: u64,
     pub photon_map: u64,
+    pub images: u64,
 }
 
 impl MemoryEstimate {
@@ -68,12 +72,12 @@ impl MemoryEstimate {
         let per_pixel = size_of::<PixelSum>() + if filter.is_box() { 0 } else { size_of::<PixelWeight>() } + rounds + aovs;
         let film = scene.camera.crop().area().saturating_mul(per_pixel as u64);
         let photon_map = if photons { photon_map_bytes(settings.photons) } else { 0 };
-        Self { mesh, film, photon_map }
+        Self { mesh, film, photon_map, images: scene.image_bytes }
     }
 
     #[must_use]
     pub fn total(&self) -> u64 {
-        self.mesh.saturating_add(self.film).saturating_add(self.photon_map)
+        self.mesh.saturating_add(self.film).saturating_add(self.photon_map).saturating_add(self.images)
     }
 
     /// `Ok` if the estimate fits in `limit` bytes; else the error naming each part and the limit.
@@ -164,11 +168,12 @@ impl MemoryLimit {
 /// A render that would need more memory than it may use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "the render needs about {} (film {}, photon map {}, mesh {}), more than {} ({}); lower the resolution or the photon budget{}",
+    "the render needs about {} (film {}, photon map {}, mesh {}, images {}), more than {} ({}); lower the resolution or the photon budget{}",
     gb(need.total()),
     gb(need.film),
     gb(need.photon_map),
     gb(need.mesh),
+    gb(need.images),
     gb(limit.bytes),
     limit.source.describe(),
     if limit.source == MemorySource::Physical { ", or raise the limit with --memory-limit GB if swap or a larger machine will take it" } else { "" }
@@ -192,10 +197,10 @@ mod tests {
 
     #[test]
     fn check_names_each_part_and_the_way_out() {
-        let need = MemoryEstimate { mesh: 1_000_000, film: 2_000_000_000, photon_map: 160_000_000_000 };
+        let need = MemoryEstimate { mesh: 1_000_000, film: 2_000_000_000, photon_map: 160_000_000_000, images: 3_000_000 };
         let limit = MemoryLimit { bytes: 24_000_000_000, source: MemorySource::Physical };
         let msg = need.check(limit).unwrap_err().to_string();
-        for part in ["162.00 GB", "film 2.00 GB", "photon map 160.00 GB", "mesh 0.00 GB", "24.00 GB", "physical memory", "--memory-limit"] {
+        for part in ["162.00 GB", "film 2.00 GB", "photon map 160.00 GB", "mesh 0.00 GB", "images 0.00 GB", "24.00 GB", "physical memory", "--memory-limit"] {
             assert!(msg.contains(part), "{part:?} missing from {msg:?}");
         }
         let user = MemoryLimit { bytes: 1_000_000_000, source: MemorySource::User };

@@ -66,7 +66,7 @@ pub fn format_table(report: &CompareReport) -> String {
 }
 
 fn format_row(region: &Region, m: &Metrics) -> String {
-    let window = format!("{},{},{},{}", region.x0, region.y0, region.x1, region.y1);
+    let window = region.rect.to_string();
     let mean = format!("{:.5} {:.5} {:.5}", m.mean_image[0], m.mean_image[1], m.mean_image[2]);
     let ratio = format!("{:.4} {:.4} {:.4}", m.mean_ratio[0], m.mean_ratio[1], m.mean_ratio[2]);
     format!(

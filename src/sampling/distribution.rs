@@ -35,6 +35,12 @@ pub struct Distribution1D {
 }
 
 impl Distribution1D {
+    /// Bytes of its table.
+    #[must_use]
+    pub fn memory_bytes(&self) -> u64 {
+        (self.cdf.len() * size_of::<f64>()) as u64
+    }
+
     /// Builds the distribution of `weights`. `None` if there are no weights, any weight is negative or not
     /// finite, or they are all zero.
     #[must_use]
@@ -186,6 +192,13 @@ pub struct Distribution2D {
 }
 
 impl Distribution2D {
+    /// Bytes of its tables (the marginal and every row's).
+    #[must_use]
+    pub fn memory_bytes(&self) -> u64 {
+        let rows: u64 = self.conditional.iter().flatten().map(Distribution1D::memory_bytes).sum();
+        self.marginal.memory_bytes() + rows + (self.conditional.len() * size_of::<Option<Distribution1D>>()) as u64
+    }
+
     /// `None` if `weights.len() != width·height`, a dimension is 0, any weight is negative or not finite, or
     /// all weights are zero.
     #[must_use]

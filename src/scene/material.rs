@@ -127,10 +127,10 @@ impl<'a> Materials<'a> {
         (self.read.len() - 1) as u32
     }
 
-    /// The materials, in the order of their indices, and the textures they use. A textured path that the
-    /// BSDF type cannot texture is an error at that key.
-    pub(crate) fn finish(self, ctx: &ErrorContext) -> Result<(Vec<Material>, Vec<Texture>), SceneError> {
-        let textures = Rc::into_inner(self.textures).expect("no bsdf is being read").into_inner().finish();
+    /// The materials, in the order of their indices, the textures they use and the bytes of those textures'
+    /// images. A textured path that the BSDF type cannot texture is an error at that key.
+    pub(crate) fn finish(self, ctx: &ErrorContext) -> Result<(Vec<Material>, Vec<Texture>, u64), SceneError> {
+        let (textures, image_bytes) = Rc::into_inner(self.textures).expect("no bsdf is being read").into_inner().finish();
         let mut materials = Vec::with_capacity(self.read.len());
         for (key, Read { bsdf, bound }) in self.read {
             let kind = bsdf.type_name();
@@ -141,7 +141,7 @@ impl<'a> Materials<'a> {
             })?;
             materials.push(m);
         }
-        Ok((materials, textures))
+        Ok((materials, textures, image_bytes))
     }
 
     /// The bsdf named `name`, referenced at `key`; `stack` holds the names being resolved (cycle check).

@@ -187,6 +187,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The textures the materials use (`Material::bindings` index them).
     pub textures: Vec<Texture>,
+    /// Bytes of the images the scene keeps: the textures' texels (each image once, `texture::ImageCache`)
+    /// and the environment maps' radiance and sampling tables (`EnvMap::memory_bytes`).
+    pub image_bytes: u64,
     /// The mesh attributes the `mesh_attribute` textures read, one table per attribute name, holding only
     /// the shapes whose material reads it (module `attributes`; empty in a scene without them).
     pub attributes: Vec<AttributeTable>,

@@ -3,9 +3,11 @@
 //!
 //! The document is read a second time by `toml_edit` (the parser under `toml`), whose keys and values
 //! carry their spans; a span reported by the typed deserialiser is then attributed to the innermost key or
-//! value that encloses it.
+//! value that encloses it. That second reading is the slowest step of loading a large TOML scene, and only
+//! an error needs it: a scene being built holds a [`SpanIndex::deferred`] index, read at its first question.
 
 use std::ops::Range;
+use std::sync::{Arc, OnceLock};
 
 use toml_edit::{ImDocument, Item, TableLike, Value};
 
@@ -19,9 +21,17 @@ struct Entry {
 
 /// All keys and array elements of a document with their spans, plus the line starts of the text.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct SpanIndex {
+struct Index {
     entries: Vec<Entry>,
     line_starts: Vec<usize>,
+}
+
+/// The [`Index`] of a document, made when it is built or at its first question ([`SpanIndex::deferred`]).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SpanIndex {
+    /// The text a deferred index reads when first asked (`None`: the index is made).
+    text: Option<Arc<str>>,
+    index: OnceLock<Index>,
 }
 
 /// Appends `name` as it would be written in a key path: bare if it is a bare TOML key, quoted otherwise.
@@ -58,6 +68,46 @@ impl SpanIndex {
     /// Indexes `text`. A document the generic reader cannot walk (it should not happen for valid TOML)
     /// gives an index without entries: errors then carry line numbers but no key paths.
     pub(crate) fn new(text: &str) -> Self {
+        Self::made(Index::new(text))
+    }
+
+    /// The index of `text`, made when it is first asked (a copy of the text waits until then): what an
+    /// error needs, at no cost to a scene without one.
+    pub(crate) fn deferred(text: &str) -> Self {
+        Self { text: Some(Arc::from(text)), index: OnceLock::new() }
+    }
+
+    /// An index of the line starts only (for documents that are not valid TOML).
+    pub(crate) fn lines_only(text: &str) -> Self {
+        Self::made(Index::lines_only(text))
+    }
+
+    fn made(index: Index) -> Self {
+        Self { text: None, index: OnceLock::from(index) }
+    }
+
+    fn index(&self) -> &Index {
+        self.index.get_or_init(|| self.text.as_deref().map(Index::new).unwrap_or_default())
+    }
+
+    /// The key path of the innermost key or value enclosing `span` (`None` if it is outside every key).
+    pub(crate) fn path_at(&self, span: &Range<usize>) -> Option<String> {
+        self.index().path_at(span)
+    }
+
+    /// 1-based line and column of byte offset `offset`.
+    pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
+        self.index().line_col(offset)
+    }
+
+    /// 1-based line where `path` is written (its key, or its value for array elements), if it is in the file.
+    pub(crate) fn line_of(&self, path: &str) -> Option<usize> {
+        self.index().line_of(path)
+    }
+}
+
+impl Index {
+    fn new(text: &str) -> Self {
         let mut index = Self::lines_only(text);
         if let Ok(doc) = ImDocument::parse(text) {
             index.add_table("", doc.as_table());
@@ -65,8 +115,7 @@ impl SpanIndex {
         index
     }
 
-    /// An index of the line starts only (for documents that are not valid TOML).
-    pub(crate) fn lines_only(text: &str) -> Self {
+    fn lines_only(text: &str) -> Self {
         let mut line_starts = vec![0];
         line_starts.extend(text.char_indices().filter(|&(_, c)| c == '\n').map(|(i, _)| i + 1));
         Self {
@@ -115,7 +164,7 @@ impl SpanIndex {
     }
 
     /// The key path of the innermost key or value enclosing `span` (`None` if it is outside every key).
-    pub(crate) fn path_at(&self, span: &Range<usize>) -> Option<String> {
+    fn path_at(&self, span: &Range<usize>) -> Option<String> {
         // toml reports errors about the document root (a missing top-level key) with an empty span at the
         // start; an empty span only matches an identical one.
         let encloses = |r: &Range<usize>| {
@@ -144,13 +193,13 @@ impl SpanIndex {
     }
 
     /// 1-based line and column of byte offset `offset`.
-    pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
+    fn line_col(&self, offset: usize) -> (usize, usize) {
         let line = self.line_starts.partition_point(|&s| s <= offset).max(1);
         (line, offset - self.line_starts[line - 1] + 1)
     }
 
     /// 1-based line where `path` is written (its key, or its value for array elements), if it is in the file.
-    pub(crate) fn line_of(&self, path: &str) -> Option<usize> {
+    fn line_of(&self, path: &str) -> Option<usize> {
         let e = self.entries.iter().find(|e| e.path == path)?;
         let start = e.key_span.as_ref().or(e.value_span.as_ref())?.start;
         Some(self.line_col(start).0)

@@ -104,9 +104,11 @@ impl<'a> Textures<'a> {
         &self.textures[index as usize]
     }
 
-    /// The loaded textures, in the order of their indices.
-    pub(crate) fn finish(self) -> Vec<Texture> {
-        self.textures
+    /// The loaded textures, in the order of their indices, and the bytes their images' texels take (each
+    /// image once, however many textures read it).
+    pub(crate) fn finish(self) -> (Vec<Texture>, u64) {
+        let bytes = self.cache.memory_bytes();
+        (self.textures, bytes)
     }
 }
 

@@ -311,3 +311,44 @@ fn caustics_keys_left_out_take_the_defaults() {
     assert_eq!(knn, caustica::scene::CausticsSettings { knn: 7, ..none });
     assert_ne!(none.knn, 7);
 }
+
+/// The memory estimate counts each image once however many textures read it, and an environment map's
+/// radiance and sampling tables (issue 40: images go into the same memory check as the film and photons).
+#[test]
+fn images_are_counted_once_in_the_memory_estimate() {
+    use caustica::render::memory::MemoryEstimate;
+    use caustica::render::RenderSettings;
+    let dir = std::env::temp_dir().join(format!("caustica-scene-files-images-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let texture = data.join("tests/data/materials/textures/pattern.png");
+    let env = scenes_dir().join("assets/envmaps/studio.exr");
+    let scene_with = |materials: usize, with_env: bool| {
+        let mut text = String::from("[sensor]\nfilm = { width = 8, height = 8 }\n");
+        for i in 0..materials {
+            text += &format!(
+                "[[shape]]\ntype = \"rectangle\"\nto_world = {{ translate = [{i}, 0, -3] }}\nbsdf = {{ type = \"diffuse\", reflectance = {{ type = \"bitmap\", filename = {:?}, filter_type = \"{}\" }} }}\n",
+                texture.display(),
+                if i % 2 == 0 { "bilinear" } else { "nearest" }
+            );
+        }
+        if with_env {
+            text += &format!("[[emitter]]\ntype = \"envmap\"\nfilename = {:?}\n", env.display());
+        }
+        let path = dir.join(format!("s{materials}{with_env}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        MemoryEstimate::of(&scene, &RenderSettings::from_scene(&scene)).images
+    };
+    // pattern.png: 32×24 texels, kept as f32 per channel (3 or 4).
+    let one = scene_with(1, false);
+    assert!(one == 32 * 24 * 3 * 4 || one == 32 * 24 * 4 * 4, "{one} bytes for one 32×24 image");
+    assert_eq!(scene_with(3, false), one, "three textures of one file keep one image");
+    let env_bytes = scene_with(1, true) - one;
+    let (w, h) = (512u64, 256u64); // studio.exr
+    // Radiance (12 B per pixel), and at most a CDF entry of 8 B per pixel and per row, plus one per table and
+    // a row's table header (32 B).
+    let (least, most) = (w * h * 12, w * h * 12 + (w + 1) * h * 8 + (h + 1) * 8 + h * 32);
+    assert!((least..=most).contains(&env_bytes), "{w}×{h} environment map: {env_bytes} bytes, not in {least}..={most}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
