@@ -117,7 +117,8 @@ pub struct Agreement {
 
 /// Measures every input (each on its own) with `backends` (`None`: embree and bvh when Embree is
 /// compiled in, else bvh) on ray sets of `rays` rays, on `pool`. Prints one line per input loaded.
-pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, String>, rays: usize, backends: Option<&[BackendKind]>) -> anyhow::Result<BenchReport> {
+/// `backends_only`: no raw-Embree baseline and no batching comparison.
+pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, String>, rays: usize, backends: Option<&[BackendKind]>, backends_only: bool) -> anyhow::Result<BenchReport> {
     let backends = backend_list(backends);
     let mut report = BenchReport {
         threads: pool.current_num_threads(),
@@ -132,7 +133,7 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, 
             n => format!(" ({} in {n} instances of {} prototypes)", input.mesh.triangle_count() - input.flat as usize, input.prototypes.len()),
         };
         eprintln!("{name}: {} triangles{instances}, loaded in {load_seconds:.3} s", input.mesh.triangle_count());
-        let input = bench_input(pool, name, &input, load_seconds, rays, &backends)?;
+        let input = bench_input(pool, name, &input, load_seconds, rays, &backends, backends_only)?;
         report.inputs.push(input);
     }
     Ok(report)
@@ -199,6 +200,7 @@ fn bench_input(
     load_seconds: f64,
     rays: usize,
     backends: &[BackendKind],
+    backends_only: bool,
 ) -> anyhow::Result<InputReport> {
     let mesh = &input.mesh;
     let instanced = !input.instances.is_empty();
@@ -221,7 +223,7 @@ fn bench_input(
         drop(accel);
         // The raw-Embree and batching comparisons build the flat soup alone: not for instanced inputs.
         let (raw_embree_incoherent, embree_batching) = match kind {
-            BackendKind::Embree if !instanced => (
+            BackendKind::Embree if !instanced && !backends_only => (
                 Some(raw_embree_mrays(pool, mesh, &sets.incoherent).with_context(|| format!("{file}: raw Embree baseline"))?),
                 batching::rates(pool, mesh, &sets).with_context(|| format!("{file}: Embree packets"))?,
             ),
