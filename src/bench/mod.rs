@@ -10,6 +10,11 @@
 //! a pool of `--threads`) on the three ray sets of [`rays`] (primary, incoherent, shadow), generated once
 //! per input and traced identically by every backend.
 //!
+//! `--instances N` places each input N times as a shapegroup's instances (`instances`; `--flatten`: the same
+//! placements as one soup), and `--backends-only` leaves out the extra Embree scenes of the raw baseline and the
+//! batching comparison, so that the process's peak memory is the input's and its accelerator's
+//! (`scripts/bench-instancing`).
+//!
 //! With Embree, the incoherent set is also traced by the raw `rtcIntersect1` loop
 //! (`EmbreeAccel::intersect_raw_baseline`) to show what our wrapper costs. When two backends are built,
 //! every primary/incoherent hit and every shadow answer is compared.
@@ -24,6 +29,7 @@ use rayon::ThreadPool;
 use serde::Serialize;
 
 mod batching;
+pub mod instances;
 pub mod rays;
 
 use self::rays::{RaySets, CHUNK};
@@ -117,8 +123,18 @@ pub struct Agreement {
 
 /// Measures every input (each on its own) with `backends` (`None`: embree and bvh when Embree is
 /// compiled in, else bvh) on ray sets of `rays` rays, on `pool`. Prints one line per input loaded.
-/// `backends_only`: no raw-Embree baseline and no batching comparison.
-pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, String>, rays: usize, backends: Option<&[BackendKind]>, backends_only: bool) -> anyhow::Result<BenchReport> {
+/// `backends_only`: no raw-Embree baseline and no batching comparison; `placed`: each input placed N times,
+/// instanced or flattened (`instances`).
+#[allow(clippy::too_many_arguments)]
+pub fn measure(
+    pool: &ThreadPool,
+    inputs: &[PathBuf],
+    params: &BTreeMap<String, String>,
+    rays: usize,
+    backends: Option<&[BackendKind]>,
+    backends_only: bool,
+    placed: Option<(usize, bool)>,
+) -> anyhow::Result<BenchReport> {
     let backends = backend_list(backends);
     let mut report = BenchReport {
         threads: pool.current_num_threads(),
@@ -126,7 +142,10 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, 
     };
     for path in inputs {
         let start = Instant::now();
-        let (name, input) = load_input(path, params)?;
+        let (name, mut input) = load_input(path, params)?;
+        if let Some((n, flatten)) = placed {
+            input = instances::placed(input, n, flatten)?;
+        }
         let load_seconds = start.elapsed().as_secs_f64();
         let instances = match input.instances.len() {
             0 => String::new(),

@@ -37,6 +37,12 @@ pub struct BenchArgs {
     /// ROBUST flag (they build more Embree scenes, which a peak-memory figure would count).
     #[arg(long)]
     pub backends_only: bool,
+    /// Each input's triangles as one shapegroup placed N times on a grid, in two levels (`bench::instances`).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub instances: Option<u64>,
+    /// With --instances: the same placements flattened into one triangle soup.
+    #[arg(long, requires = "instances")]
+    pub flatten: bool,
 }
 
 /// Runs the benchmark, prints the table, and writes the JSON report if asked.
@@ -47,7 +53,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<Outcome> {
     let threads = args::worker_threads(args.threads);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     let rays = usize::try_from(args.rays).context("--rays is too large")?;
-    let report = measure(&pool, &args.inputs, &args.params.map(), rays, args.backends.as_deref(), args.backends_only)?;
+    let placed = args.instances.map(|n| (n as usize, args.flatten));
+    let report = measure(&pool, &args.inputs, &args.params.map(), rays, args.backends.as_deref(), args.backends_only, placed)?;
     print!("{}", format_table(&report));
     if let Some(out) = &args.json {
         write_json_atomic(out, &report)?;
