@@ -191,4 +191,26 @@ mod tests {
         let s = load(&format!("{HEAD}{group}[[shape]]\ntype = \"rectangle\"\n")).unwrap();
         assert_eq!((s.triangle_count(), s.instances.len()), (2, 0));
     }
+
+    /// Mitsuba XML: a shapegroup of two shapes placed twice, with the refusals at their lines.
+    #[test]
+    fn xml_shapegroups_and_instances() {
+        let xml = |body: &str| {
+            let text = format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"8\"/></film></sensor>\n{body}</scene>");
+            Scene::from_xml_str(&text, Path::new("."), Path::new("s.xml"), &Default::default()).map_err(|e| e.to_string())
+        };
+        let group = "<shape type=\"shapegroup\" id=\"g\">\n<shape type=\"cube\"/>\n<shape type=\"rectangle\"><bsdf type=\"dielectric\"/></shape>\n</shape>\n";
+        let s = xml(&format!("{group}<shape type=\"instance\"><ref id=\"g\"/></shape>\n<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><scale value=\"-1 2 1\"/></transform></shape>\n")).unwrap();
+        assert_eq!((s.instances.len(), s.prototypes.clone(), s.flat_triangles, s.triangle_count()), (2, vec![0..14], 0, 14));
+        assert!(s.has_delta_bsdf() && !s.delta_bounds().is_empty());
+        for (body, says) in [
+            ("<shape type=\"shapegroup\" id=\"g\">\n<shape type=\"cube\">\n<emitter type=\"area\"/></shape></shape>\n<shape type=\"instance\"><ref id=\"g\"/></shape>\n", "s.xml:5: <emitter type=\"area\">: a shape in a shapegroup cannot emit"),
+            ("<bsdf type=\"diffuse\" id=\"d\"/>\n<shape type=\"instance\"><ref id=\"d\"/></shape>\n", "s.xml:4: <ref id=\"d\">: refers to a <bsdf>"),
+            ("<shape type=\"instance\"><ref id=\"none\"/></shape>\n", "s.xml:3: <ref id=\"none\">: no element has id"),
+            ("<shape type=\"instance\"/>\n", "needs `shapegroup`"),
+        ] {
+            let e = xml(body).err().unwrap_or_else(|| panic!("loads: {body}"));
+            assert!(e.contains(says), "{says}: {e}");
+        }
+    }
 }
