@@ -515,7 +515,7 @@ pub enum RenderImageError {
 /// Builds `backend` over the scene and renders it with `settings` on the current rayon pool, no
 /// progress, no cancellation: the one-call form used by tests and reports.
 pub fn render_image(scene: &Scene, backend: crate::accel::BackendKind, settings: &RenderSettings) -> Result<RenderedImage, RenderImageError> {
-    let accel = crate::accel::build_accel(backend, &scene.mesh.positions, &scene.mesh.indices)?;
+    let accel = crate::accel::build_accel(backend, &scene.geometry())?;
     let mut film = settings.film(&scene.camera)?;
     let cancel = AtomicBool::new(false);
     let t = Instant::now();

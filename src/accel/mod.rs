@@ -1,39 +1,57 @@
 //! Ray–triangle intersection behind one interface.
 //!
-//! Every backend is built from the same flattened triangle soup (`positions`, `indices`) and returns a
-//! *preliminary* hit `(t, prim, u, v)` in Embree's barycentric convention,
-//! `p = (1 − u − v)·p0 + u·p1 + v·p2`. Shading never reads a backend's normal: the scene builds the
-//! shading interaction from `(prim, u, v)` in one place, so both backends shade identically.
+//! Every backend is built from the scene's geometry ([`Geometry`], module `instance`): a flat triangle
+//! soup in world space and, for Mitsuba's `shapegroup` + `instance`, prototypes (object-space triangles
+//! of the same soup, stored once) placed by instances. It returns a *preliminary* hit
+//! `(t, prim, u, v, inst)` in Embree's barycentric convention, `p = (1 − u − v)·p0 + u·p1 + v·p2`, with
+//! `inst` the instance ([`FLAT`] for the flat soup). Shading never reads a backend's normal: the scene
+//! builds the shading interaction from `(inst, prim, u, v)` in one place, so both backends shade
+//! identically.
 //!
 //! - [`brute::BruteForce`]: tests every triangle; the oracle for tests, kept forever.
 //! - [`bvh::Bvh`]: the pure-Rust BVH.
 //! - `embree::EmbreeAccel` (feature `embree`): Embree 3 or 4 through our own bindings.
 //!
-//! [`build_accel`] wraps the chosen backend in [`rebase::Rebased`], which traces rays that start far from
-//! the scene (reflected by a sky-sized shape) from points of the same line near it; when far geometry
-//! surrounds the scene (a sky-sized shape), it builds the backend twice, over the near and over the far
-//! triangles (each re-based on its own), and rays that stay near the scene skip the far one
-//! ([`shell::Shelled`]).
+//! [`build_accel`], the one place a backend is built from a scene, wraps the chosen backend in
+//! [`rebase::Rebased`], which traces rays that start far from the scene (reflected by a sky-sized shape)
+//! from points of the same line near it; when far geometry surrounds the scene (a sky-sized shape), it
+//! builds the backend twice, over the near and over the far triangles (each re-based on its own), and
+//! rays that stay near the scene skip the far one ([`shell::Shelled`]).
+//!
+//! **Instances** (two-level acceleration): Embree places each prototype's scene with
+//! `RTC_GEOMETRY_TYPE_INSTANCE`; the BVH backend builds one BVH per prototype and a top level over the
+//! instances' world boxes ([`two_level::TwoLevel`]); the brute-force oracle tests every instance's
+//! triangles through the same object-space rays. Only the flat soup is split into near and far parts
+//! (`shell`): the sky-sized shapes `shell` exists for are single shapes, and instances always belong to
+//! the near part (its box grows to hold them). `rebase` treats the instanced scene as one: its box holds
+//! the instances' world boxes, and the detail that decides which rays are far is the median triangle of
+//! the flat soup and of the prototypes (each scaled by its first instance's mean axis scale).
 
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod instance;
 pub mod rebase;
 pub mod shell;
 pub mod triangle;
+pub mod two_level;
+
+pub use instance::{Geometry, Instance, FLAT};
 
 use crate::error::AccelError;
 use crate::math::{Ray, Vec3};
 
-/// A preliminary intersection: distance along the ray (in units of `ray.dir`), global triangle index,
-/// and barycentrics in Embree's convention.
+/// A preliminary intersection: distance along the ray (in units of `ray.dir`), the triangle's index in
+/// the scene's soup (a prototype's triangle for a hit on an instance), barycentrics in Embree's
+/// convention, and the instance hit ([`FLAT`] on the flat soup). 20 bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
     pub prim: u32,
     pub u: f32,
     pub v: f32,
+    pub inst: u32,
 }
 
 /// The interface every intersection backend implements. Queries are `&self` and thread-safe.
@@ -87,6 +105,8 @@ pub(crate) fn batch_if_all<T>(rays: &[Ray], out: &mut [T], qualifies: impl Fn(&R
     }
 }
 
+const _: () = assert!(size_of::<Hit>() == 20);
+
 /// Which backend to build, chosen at run time (`--backend embree|bvh`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -125,19 +145,51 @@ impl std::str::FromStr for BackendKind {
     }
 }
 
-/// Builds the chosen backend over a triangle soup. Only the chosen backend is built: once, or once over
-/// the near and once over the far triangles when far geometry surrounds the scene (`shell`).
-pub fn build_accel(kind: BackendKind, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Box<dyn Accel>, AccelError> {
-    validate_soup(positions, indices)?;
-    match shell::split(positions, indices) {
-        Some(split) => {
-            let part = |ids: &[u32]| -> Vec<[u32; 3]> { ids.iter().map(|&i| indices[i as usize]).collect() };
-            let near = build_rebased(kind, positions, &part(&split.near))?;
+/// Builds the chosen backend over the scene's geometry: the one place every command builds it. Only the
+/// chosen backend is built: once, or once over the near and once over the far triangles when far geometry
+/// surrounds the scene (`shell`); prototypes once each, whatever the number of their instances.
+pub fn build_accel(kind: BackendKind, geometry: &Geometry) -> Result<Box<dyn Accel>, AccelError> {
+    validate_soup(geometry.positions, geometry.indices)?;
+    geometry.check().map_err(AccelError::InvalidGeometry)?;
+    let (positions, flat) = (geometry.positions, geometry.flat_indices());
+    let part = |ids: &[u32]| -> Vec<[u32; 3]> { ids.iter().map(|&i| flat[i as usize]).collect() };
+    if geometry.instances.is_empty() {
+        return match shell::split(positions, flat) {
+            Some(split) => {
+                let near = build_rebased(kind, positions, &part(&split.near))?;
+                let far = build_rebased(kind, positions, &part(&split.far))?;
+                Ok(Box::new(shell::Shelled::new(near, far, split)))
+            }
+            None => build_rebased(kind, positions, flat),
+        };
+    }
+    let instance_bounds = geometry.instance_bounds();
+    match shell::split(positions, flat) {
+        Some(mut split) => {
+            split.near_bounds = instance_bounds.iter().fold(split.near_bounds, |b, &i| b.union(i));
+            let near = build_instanced(kind, geometry, &part(&split.near), &instance_bounds)?;
             let far = build_rebased(kind, positions, &part(&split.far))?;
             Ok(Box::new(shell::Shelled::new(near, far, split)))
         }
-        None => build_rebased(kind, positions, indices),
+        None => build_instanced(kind, geometry, flat, &instance_bounds),
     }
+}
+
+/// The backend over `flat` (its hits numbered in `flat`) and the geometry's instances, re-based as one.
+fn build_instanced(kind: BackendKind, g: &Geometry, flat: &[[u32; 3]], instance_bounds: &[crate::math::Aabb]) -> Result<Box<dyn Accel>, AccelError> {
+    let inner: Box<dyn Accel> = match kind {
+        BackendKind::Bvh => {
+            let prototypes = (0..g.prototypes.len()).map(|p| Box::new(bvh::Bvh::build(g.positions, g.prototype_indices(p))) as Box<dyn Accel>).collect();
+            let first = g.prototypes.iter().map(|r| r.start).collect();
+            Box::new(two_level::TwoLevel::new(Box::new(bvh::Bvh::build(g.positions, flat)), prototypes, first, g.instances, instance_bounds))
+        }
+        #[cfg(feature = "embree")]
+        BackendKind::Embree => Box::new(embree::EmbreeAccel::instanced(g, flat)?),
+        #[cfg(not(feature = "embree"))]
+        BackendKind::Embree => return Err(AccelError::EmbreeNotCompiled),
+    };
+    let (bounds, detail) = rebase::instanced_detail(g, flat, instance_bounds);
+    Ok(Box::new(rebase::Rebased::with_detail(inner, bounds, detail)))
 }
 
 /// One backend over the soup, wrapped so that far rays (reflected by a sky-sized shape) are re-based near

@@ -45,6 +45,40 @@ pub struct Rebased {
     bounds: (glam::DVec3, glam::DVec3),
 }
 
+/// The median of `sizes` (`None` for none).
+fn median(mut sizes: Vec<f32>) -> Option<f32> {
+    if sizes.is_empty() {
+        return None;
+    }
+    let mid = sizes.len() / 2;
+    let (_, median, _) = sizes.select_nth_unstable_by(mid, f32::total_cmp);
+    Some(*median)
+}
+
+/// The box and the detail (median triangle diagonal) of an instanced scene for [`Rebased::with_detail`]:
+/// the box holds `flat` and the instances' world boxes; the diagonals are those of `flat` and of every
+/// prototype triangle, scaled by its first instance's mean axis scale (module docs of `accel`).
+#[must_use]
+pub fn instanced_detail(g: &super::Geometry, flat: &[[u32; 3]], instance_bounds: &[Aabb]) -> (Aabb, Option<f32>) {
+    let diagonal = |t: &[u32; 3]| Aabb::from_points(&t.map(|i| g.positions[i as usize]));
+    let mut b = instance_bounds.iter().fold(Aabb::EMPTY, |b, &i| b.union(i));
+    let mut sizes: Vec<f32> = flat
+        .iter()
+        .map(|t| {
+            let tb = diagonal(t);
+            b = b.union(tb);
+            tb.extent().length()
+        })
+        .collect();
+    for p in 0..g.prototypes.len() {
+        let Some(inst) = g.instances.iter().find(|i| i.prototype as usize == p) else { continue };
+        let m = inst.to_world.matrix3;
+        let scale = (m.x_axis.length() + m.y_axis.length() + m.z_axis.length()) / 3.0;
+        sizes.extend(g.prototype_indices(p).iter().map(|t| scale * diagonal(t).extent().length()));
+    }
+    (b, median(sizes))
+}
+
 /// One segment of a far ray: the ray to trace (`t ≥ 0` from its origin) and the `t` of its origin on
 /// the original ray.
 #[derive(Clone, Copy, Debug)]
@@ -58,7 +92,7 @@ impl Rebased {
     #[must_use]
     pub fn new(inner: Box<dyn Accel>, positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
         let mut b = Aabb::EMPTY;
-        let mut sizes: Vec<f32> = indices
+        let sizes: Vec<f32> = indices
             .iter()
             .map(|t| {
                 let tb = Aabb::from_points(&t.map(|i| positions[i as usize]));
@@ -66,13 +100,19 @@ impl Rebased {
                 tb.extent().length()
             })
             .collect();
-        let far = if sizes.is_empty() {
-            f32::INFINITY
-        } else {
-            let mid = sizes.len() / 2;
-            let (_, median, _) = sizes.select_nth_unstable_by(mid, f32::total_cmp);
-            let far = FAR_PER_DETAIL * *median;
-            if far > 0.0 { far } else { f32::INFINITY }
+        Self::with_detail(inner, b, median(sizes))
+    }
+
+    /// Wraps `inner`, whose geometry lies in `bounds` with a median triangle diagonal `detail` (`None`:
+    /// no triangles, no ray is re-based).
+    #[must_use]
+    pub fn with_detail(inner: Box<dyn Accel>, b: Aabb, detail: Option<f32>) -> Self {
+        let far = match detail {
+            None => f32::INFINITY,
+            Some(median) => {
+                let far = FAR_PER_DETAIL * median;
+                if far > 0.0 { far } else { f32::INFINITY }
+            }
         };
         let pad = glam::DVec3::splat(1e-3 * f64::from(b.extent().max_element()) + 1e-30);
         Self {

@@ -238,14 +238,15 @@ impl Shelled {
     /// The closest hit of `ray` given the near backend's answer `near` (in the near backend's ids): the
     /// far backend is asked only where the ray's part up to the near hit leaves the inner ball.
     fn with_far(&self, ray: &Ray, near: Option<Hit>) -> Option<Hit> {
-        let near = near.map(|h| Hit { prim: self.near_ids[h.prim as usize], ..h });
+        // Instances report their prototype's triangles already; flat hits are numbered in the near list.
+        let near = near.map(|h| if h.inst == super::FLAT { Hit { prim: self.near_ids[h.prim as usize], ..h } } else { h });
         let t_end = near.map_or(ray.t_max, |h| h.t);
         if self.inside(ray, t_end) {
             return near;
         }
         let far = self.far.intersect(&Ray { t_max: t_end, ..*ray }).map(|h| Hit { prim: self.far_ids[h.prim as usize], ..h });
         match (near, far) {
-            (Some(n), Some(f)) if f.t < n.t || (f.t == n.t && f.prim < n.prim) => Some(f),
+            (Some(n), Some(f)) if f.t < n.t || (f.t == n.t && n.inst == super::FLAT && f.prim < n.prim) => Some(f),
             (Some(n), _) => Some(n),
             (None, f) => f,
         }

@@ -102,7 +102,7 @@ impl RayPrecomp {
 #[inline]
 #[must_use]
 pub fn intersect_triangle(pre: &RayPrecomp, prim: u32, p: [Vec3; 3]) -> Option<Hit> {
-    pre.intersect(p[0], p[1], p[2]).map(|(t, u, v)| Hit { t, prim, u, v })
+    pre.intersect(p[0], p[1], p[2]).map(|(t, u, v)| Hit { t, prim, u, v, inst: super::FLAT })
 }
 
 #[cfg(test)]

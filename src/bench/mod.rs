@@ -10,6 +10,11 @@
 //! a pool of `--threads`) on the three ray sets of [`rays`] (primary, incoherent, shadow), generated once
 //! per input and traced identically by every backend.
 //!
+//! `--instances N` places each input N times as a shapegroup's instances (`instances`; `--flatten`: the same
+//! placements as one soup), and `--backends-only` leaves out the extra Embree scenes of the raw baseline and the
+//! batching comparison, so that the process's peak memory is the input's and its accelerator's
+//! (`scripts/bench-instancing`).
+//!
 //! With Embree, the incoherent set is also traced by the raw `rtcIntersect1` loop
 //! (`EmbreeAccel::intersect_raw_baseline`) to show what our wrapper costs. When two backends are built,
 //! every primary/incoherent hit and every shadow answer is compared.
@@ -24,6 +29,7 @@ use rayon::ThreadPool;
 use serde::Serialize;
 
 mod batching;
+pub mod instances;
 pub mod rays;
 
 use self::rays::{RaySets, CHUNK};
@@ -117,7 +123,18 @@ pub struct Agreement {
 
 /// Measures every input (each on its own) with `backends` (`None`: embree and bvh when Embree is
 /// compiled in, else bvh) on ray sets of `rays` rays, on `pool`. Prints one line per input loaded.
-pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, String>, rays: usize, backends: Option<&[BackendKind]>) -> anyhow::Result<BenchReport> {
+/// `backends_only`: no raw-Embree baseline and no batching comparison; `placed`: each input placed N times,
+/// instanced or flattened (`instances`).
+#[allow(clippy::too_many_arguments)]
+pub fn measure(
+    pool: &ThreadPool,
+    inputs: &[PathBuf],
+    params: &BTreeMap<String, String>,
+    rays: usize,
+    backends: Option<&[BackendKind]>,
+    backends_only: bool,
+    placed: Option<(usize, bool)>,
+) -> anyhow::Result<BenchReport> {
     let backends = backend_list(backends);
     let mut report = BenchReport {
         threads: pool.current_num_threads(),
@@ -125,10 +142,17 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, 
     };
     for path in inputs {
         let start = Instant::now();
-        let (name, mesh) = load_input(path, params)?;
+        let (name, mut input) = load_input(path, params)?;
+        if let Some((n, flatten)) = placed {
+            input = instances::placed(input, n, flatten)?;
+        }
         let load_seconds = start.elapsed().as_secs_f64();
-        eprintln!("{name}: {} triangles, loaded in {load_seconds:.3} s", mesh.triangle_count());
-        let input = bench_input(pool, name, &mesh, load_seconds, rays, &backends)?;
+        let instances = match input.instances.len() {
+            0 => String::new(),
+            n => format!(" ({} in {n} instances of {} prototypes)", input.mesh.triangle_count() - input.flat as usize, input.prototypes.len()),
+        };
+        eprintln!("{name}: {} triangles{instances}, loaded in {load_seconds:.3} s", input.mesh.triangle_count());
+        let input = bench_input(pool, name, &input, load_seconds, rays, &backends, backends_only)?;
         report.inputs.push(input);
     }
     Ok(report)
@@ -137,10 +161,32 @@ pub fn measure(pool: &ThreadPool, inputs: &[PathBuf], params: &BTreeMap<String, 
 /// Loads one benchmark input as a single triangle soup, with the name shown in the report.
 /// Mesh files (.obj, .ply, .ply.gz, .serialized) and scene files (.toml or Mitsuba XML .xml with its parameters
 /// `params`: every shape of the scene, flattened).
-pub fn load_input(path: &Path, params: &BTreeMap<String, String>) -> anyhow::Result<(String, TriangleMesh)> {
+pub fn load_input(path: &Path, params: &BTreeMap<String, String>) -> anyhow::Result<(String, BenchInput)> {
     let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) || crate::scene::is_xml(path);
-    let mesh = if is_scene { crate::scene::Scene::load_with_params(path, params)?.mesh } else { load_mesh(path)? };
-    Ok((path.display().to_string(), mesh))
+    let input = if is_scene {
+        let scene = crate::scene::Scene::load_with_params(path, params)?;
+        BenchInput { mesh: scene.mesh, flat: scene.flat_triangles, prototypes: scene.prototypes, instances: scene.instances }
+    } else {
+        let mesh = load_mesh(path)?;
+        BenchInput { flat: mesh.triangle_count() as u32, mesh, prototypes: Vec::new(), instances: Vec::new() }
+    };
+    Ok((path.display().to_string(), input))
+}
+
+/// A benchmark input: the scene's soup with its prototypes and instances (none for a mesh file), as
+/// `Scene` holds them.
+pub struct BenchInput {
+    pub mesh: TriangleMesh,
+    pub flat: u32,
+    pub prototypes: Vec<std::ops::Range<u32>>,
+    pub instances: Vec<crate::accel::Instance>,
+}
+
+impl BenchInput {
+    #[must_use]
+    pub fn geometry(&self) -> crate::accel::Geometry<'_> {
+        crate::accel::Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat, prototypes: &self.prototypes, instances: &self.instances }
+    }
 }
 
 /// The requested backends without repeats, or the default set.
@@ -169,13 +215,16 @@ struct Answers {
 fn bench_input(
     pool: &ThreadPool,
     file: String,
-    mesh: &TriangleMesh,
+    input: &BenchInput,
     load_seconds: f64,
     rays: usize,
     backends: &[BackendKind],
+    backends_only: bool,
 ) -> anyhow::Result<InputReport> {
+    let mesh = &input.mesh;
+    let instanced = !input.instances.is_empty();
     let sets = pool
-        .install(|| RaySets::generate(mesh, rays))
+        .install(|| RaySets::generate_for(&input.geometry(), rays))
         .with_context(|| format!("{file}: cannot generate rays"))?;
     let ray_counts = RaySetCounts {
         primary: sets.primary.len(),
@@ -186,17 +235,18 @@ fn bench_input(
     let mut answers: Vec<Answers> = Vec::new();
     for &kind in backends {
         let (accel, build_seconds) =
-            build_median(pool, kind, mesh).with_context(|| format!("{file}: cannot build the {} backend", kind.name()))?;
+            build_median(pool, kind, &input.geometry()).with_context(|| format!("{file}: cannot build the {} backend", kind.name()))?;
         let (primary, primary_s) = time_closest(pool, accel.as_ref(), &sets.primary);
         let (incoherent, incoherent_s) = time_closest(pool, accel.as_ref(), &sets.incoherent);
         let (shadow, shadow_s) = time_occluded(pool, accel.as_ref(), &sets.shadow);
         drop(accel);
+        // The raw-Embree and batching comparisons build the flat soup alone: not for instanced inputs.
         let (raw_embree_incoherent, embree_batching) = match kind {
-            BackendKind::Embree => (
+            BackendKind::Embree if !instanced && !backends_only => (
                 Some(raw_embree_mrays(pool, mesh, &sets.incoherent).with_context(|| format!("{file}: raw Embree baseline"))?),
                 batching::rates(pool, mesh, &sets).with_context(|| format!("{file}: Embree packets"))?,
             ),
-            BackendKind::Bvh => (None, Vec::new()),
+            BackendKind::Embree | BackendKind::Bvh => (None, Vec::new()),
         };
         for b in &embree_batching {
             eprintln!(
@@ -257,13 +307,13 @@ fn bench_input(
 }
 
 /// Builds `kind` [`RUNS`] times and keeps the last build; returns it with the median build time.
-fn build_median(pool: &ThreadPool, kind: BackendKind, mesh: &TriangleMesh) -> anyhow::Result<(Box<dyn Accel>, f64)> {
+fn build_median(pool: &ThreadPool, kind: BackendKind, geometry: &crate::accel::Geometry) -> anyhow::Result<(Box<dyn Accel>, f64)> {
     let mut times = Vec::with_capacity(RUNS);
     let mut accel = None;
     for _ in 0..RUNS {
         drop(accel.take());
         let start = Instant::now();
-        accel = Some(pool.install(|| build_accel(kind, &mesh.positions, &mesh.indices))?);
+        accel = Some(pool.install(|| build_accel(kind, geometry))?);
         times.push(start.elapsed().as_secs_f64());
     }
     let accel = accel.expect("RUNS > 0 builds ran");
@@ -424,7 +474,7 @@ mod tests {
 
     #[test]
     fn agreement_counts_disagreements() {
-        let h = |t: f32, prim: u32| Some(Hit { t, prim, u: 0.0, v: 0.0 });
+        let h = |t: f32, prim: u32| Some(Hit { t, prim, u: 0.0, v: 0.0, inst: crate::accel::FLAT });
         assert!(hits_agree(None, None) && hits_agree(h(1.0, 3), h(1.1, 3)) && hits_agree(h(1.0, 3), h(1.00005, 4)));
         assert!(!hits_agree(h(1.0, 3), None) && !hits_agree(h(1.0, 3), h(1.001, 4)));
         let a = Answers {

@@ -1,9 +1,12 @@
-//! The benchmark's three ray sets, generated deterministically from a mesh (every ray is a pure function
+//! The benchmark's three ray sets, generated deterministically from a mesh or a scene's geometry with
+//! instances (every ray is a pure function
 //! of (seed, set, index), so the sets do not depend on the thread count and are identical for every backend):
 //! - *primary*: a pinhole camera outside the bounding sphere looking at its centre; a square image whose
 //!   rays are stored tile by tile (16×16 pixels, scanline order inside a tile and between tiles), so each
 //!   parallel work item of [`CHUNK`] rays is one coherent tile;
-//! - *incoherent*: origins uniform over the surface area, offset by the one offset rule
+//! - *incoherent*: origins uniform over the surface area (with instances: a flat triangle or an instance
+//!   chosen by area, the instance's area its prototype's times `|det|^(2/3)` of its transform, then a
+//!   prototype triangle by area, placed), offset by the one offset rule
 //!   ([`offset_ray_origin`] with [`barycentric_point_error`]), cosine-distributed directions about the
 //!   geometric normal of a randomly chosen side, `t ≥ spawn_t_min` as the renderer's spawned rays;
 //! - *shadow*: occlusion between two random surface points, both ends offset, `t ∈ [spawn_t_min, 1 − 10⁻⁴]`
@@ -15,7 +18,8 @@
 
 use rayon::prelude::*;
 
-use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec3};
+use crate::accel::{Geometry, FLAT};
+use crate::math::{barycentric_point_error, gamma, offset_ray_origin, spawn_t_min, Aabb, Frame, Ray, Vec3};
 use crate::mesh::TriangleMesh;
 use crate::sampler::Sampler;
 
@@ -41,8 +45,14 @@ impl RaySets {
     /// Generates `n` incoherent and `n` shadow rays and a square image of about `n` primary rays.
     /// Every ray is a pure function of (seed, set, index), so the sets do not depend on threads.
     pub fn generate(mesh: &TriangleMesh, n: usize) -> anyhow::Result<Self> {
-        let surface = SurfaceSampler::new(mesh)?;
-        let primary = primary_rays(mesh, n);
+        Self::generate_for(&Geometry::soup(&mesh.positions, &mesh.indices), n)
+    }
+
+    /// [`RaySets::generate`] over a scene's geometry, instances included.
+    pub fn generate_for(g: &Geometry, n: usize) -> anyhow::Result<Self> {
+        let surface = SurfaceSampler::new(g)?;
+        let bounds = g.instance_bounds().into_iter().fold(Aabb::from_points(&g.flat_indices().iter().flatten().map(|&i| g.positions[i as usize]).collect::<Vec<_>>()), Aabb::union);
+        let primary = primary_rays(bounds, n);
         let incoherent = (0..n as u64)
             .into_par_iter()
             .map(|i| {
@@ -79,9 +89,9 @@ pub fn primary_side(n: usize) -> usize {
 
 /// A pinhole camera outside the mesh's bounding sphere looking at its centre, one jittered ray per
 /// pixel, stored tile by tile (see the module docs).
-fn primary_rays(mesh: &TriangleMesh, n: usize) -> Vec<Ray> {
+fn primary_rays(bounds: Aabb, n: usize) -> Vec<Ray> {
     let side = primary_side(n);
-    let (center, radius) = mesh.bounds().bounding_sphere();
+    let (center, radius) = bounds.bounding_sphere();
     let half_fov_tan = (0.5 * FOV_DEGREES).to_radians().tan();
     // The sphere fits in the view when the distance is radius / sin(fov/2); 5% margin.
     let distance = 1.05 * radius.max(f32::MIN_POSITIVE) / (0.5 * FOV_DEGREES).to_radians().sin();
@@ -122,48 +132,80 @@ struct SurfacePoint {
     ng: Vec3,
 }
 
-/// Samples points uniformly by area over a mesh (triangle by its area, then uniform barycentrics).
+/// Samples points uniformly by area over a mesh (triangle by its area, then uniform barycentrics); with
+/// instances, as the module docs say.
 struct SurfaceSampler<'a> {
-    mesh: &'a TriangleMesh,
-    /// Running sums of triangle areas (f64, so a million small triangles sum exactly enough).
+    g: Geometry<'a>,
+    /// Running sums of the flat triangles' areas, then of the instances' (f64, so a million small
+    /// triangles sum exactly enough).
     cdf: Vec<f64>,
+    /// Per prototype, the running sums of its triangles' areas.
+    prototypes: Vec<Vec<f64>>,
+}
+
+fn triangle_area(g: &Geometry, t: &[u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| g.positions[i as usize]);
+    0.5 * f64::from((b - a).cross(c - a).length())
+}
+
+fn running_sums(areas: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut total = 0.0;
+    areas.map(|a| {
+        total += a;
+        total
+    }).collect()
 }
 
 impl<'a> SurfaceSampler<'a> {
-    fn new(mesh: &'a TriangleMesh) -> anyhow::Result<Self> {
-        let mut total = 0.0f64;
-        let cdf: Vec<f64> = (0..mesh.triangle_count())
-            .map(|i| {
-                let [a, b, c] = mesh.triangle(i);
-                total += 0.5 * f64::from((b - a).cross(c - a).length());
-                total
-            })
-            .collect();
+    fn new(g: &Geometry<'a>) -> anyhow::Result<Self> {
+        let prototypes: Vec<Vec<f64>> = (0..g.prototypes.len()).map(|p| running_sums(g.prototype_indices(p).iter().map(|t| triangle_area(g, t)))).collect();
+        let instance_area = |i: &crate::accel::Instance| {
+            let det = f64::from(i.to_world.matrix3.determinant()).abs();
+            prototypes[i.prototype as usize].last().copied().unwrap_or(0.0) * det.powf(2.0 / 3.0)
+        };
+        let cdf = running_sums(g.flat_indices().iter().map(|t| triangle_area(g, t)).chain(g.instances.iter().map(instance_area)));
+        let total = cdf.last().copied().unwrap_or(0.0);
         if !(total > 0.0 && total.is_finite()) {
             anyhow::bail!("the mesh has no surface area to sample ray origins on (total area {total})");
         }
-        Ok(Self { mesh, cdf })
+        Ok(Self { g: *g, cdf, prototypes })
     }
 
     fn sample(&self, s: &mut Sampler) -> SurfacePoint {
-        let total = *self.cdf.last().expect("checked non-empty in new");
-        let target = f64::from(s.next_1d()) * total;
-        // First triangle whose running sum exceeds the target; zero-area triangles are never chosen.
-        let tri = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
-        let corners = self.mesh.triangle(tri);
+        let pick = |cdf: &[f64], u: f32| {
+            let target = f64::from(u) * cdf.last().expect("checked non-empty in new");
+            // First entry whose running sum exceeds the target; zero-area entries are never chosen.
+            cdf.partition_point(|&c| c <= target).min(cdf.len() - 1)
+        };
+        let k = pick(&self.cdf, s.next_1d());
+        let flat = self.g.flat as usize;
+        let (tri, inst) = if k < flat {
+            (self.g.indices[k], FLAT)
+        } else {
+            let inst = &self.g.instances[k - flat];
+            let p = inst.prototype as usize;
+            (self.g.prototype_indices(p)[pick(&self.prototypes[p], s.next_1d())], (k - flat) as u32)
+        };
+        let corners = tri.map(|i| self.g.positions[i as usize]);
         // Uniform barycentrics: b0 = 1 − √u1, b1 = u2·√u1 (pbrt-v4 §6.5.4, SampleUniformTriangle).
         let (u1, u2) = (s.next_1d(), s.next_1d());
         let su = u1.sqrt();
         let b = [1.0 - su, u2 * su, su - u2 * su];
         let p = b[0] * corners[0] + b[1] * corners[1] + b[2] * corners[2];
-        let ng = (corners[1] - corners[0])
-            .cross(corners[2] - corners[0])
-            .try_normalize()
-            .unwrap_or(Vec3::Z);
+        let ng = (corners[1] - corners[0]).cross(corners[2] - corners[0]).try_normalize().unwrap_or(Vec3::Z);
+        let p_error = barycentric_point_error(b, corners);
+        if inst == FLAT {
+            return SurfacePoint { p, p_error, ng };
+        }
+        // Placed as `Scene::interaction` places an instanced hit.
+        let i = &self.g.instances[inst as usize];
+        let m = i.to_world.matrix3;
+        let abs = glam::Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+        let t = Vec3::from(i.to_world.translation);
         SurfacePoint {
-            p,
-            p_error: barycentric_point_error(b, corners),
-            ng,
+            p: i.to_world.transform_point3(p),
+            p_error: Vec3::from(abs * glam::Vec3A::from(p_error)) + gamma(3) * (Vec3::from(abs * glam::Vec3A::from(p.abs())) + t.abs()),
+            ng: Vec3::from(i.to_object.matrix3.transpose() * glam::Vec3A::from(ng)).try_normalize().unwrap_or(Vec3::Z),
         }
     }
 }

@@ -136,7 +136,7 @@ pub fn run(args: &ConvergeArgs) -> anyhow::Result<Outcome> {
     std::fs::create_dir_all(&args.output).with_context(|| format!("-o {}: cannot create the directory", args.output.display()))?;
 
     let pool = args.run.pool()?;
-    let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    let accel = pool.install(|| build_accel(backend, &scene.geometry()))?;
     let cancel = AtomicBool::new(false);
 
     let mut runs: Vec<EstimatorRun> = Vec::new();

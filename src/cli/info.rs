@@ -11,7 +11,7 @@ use crate::bsdf::Bsdf;
 use crate::light::Light;
 use crate::math::Vec3;
 use crate::photon::PhotonBudget;
-use crate::render::memory::MemoryEstimate;
+use crate::render::memory::{mesh_bytes, MemoryEstimate};
 use crate::render::{photon_pass_needed, RenderSettings};
 use crate::scene::{Estimator, Scene};
 
@@ -91,6 +91,9 @@ pub fn describe(scene: &Scene) -> String {
     let _ = writeln!(s, "  sensor      {}", sensor(&scene.camera));
     let (centre, radius) = scene.bounds.bounding_sphere();
     let _ = writeln!(s, "  geometry    {} triangles, {} vertices, bounding sphere centre {} radius {radius:.4}", scene.triangle_count(), scene.mesh.positions.len(), fmt_vec(centre));
+    if !scene.instances.is_empty() {
+        let _ = writeln!(s, "  instances   {}", instances(scene));
+    }
     let delta = scene.materials.iter().filter(|m| m.facts().has_delta).count();
     let _ = writeln!(s, "  materials   {} ({}); {delta} with a delta lobe (mirror/glass)", scene.materials.len(), tally(scene.materials.iter().map(|m| bsdf_kind(m.template()))));
     let lights = scene.lights.lights();
@@ -150,6 +153,35 @@ fn describe_budget(b: PhotonBudget) -> String {
         PhotonBudget::Emitted(n) => format!("{n} photons emitted"),
         PhotonBudget::Stored(m) => format!("emit until {m} caustic photons are stored"),
     }
+}
+
+/// Instances, prototypes, and the mesh memory instancing saves against placing every instance's triangles
+/// (`render::memory::mesh_bytes`, per vertex and per triangle, as the estimate counts them).
+fn instances(scene: &Scene) -> String {
+    let m = &scene.mesh;
+    let (normals, uvs) = (m.normals.is_some(), m.uvs.is_some());
+    // A prototype's vertices are those its triangles index (its shapes' vertices, contiguous).
+    let size = |r: &std::ops::Range<u32>| -> (u64, u64) {
+        let tris = &m.indices[r.start as usize..r.end as usize];
+        let (lo, hi) = tris.iter().flatten().fold((u32::MAX, 0), |(lo, hi), &i| (lo.min(i), hi.max(i)));
+        (if tris.is_empty() { 0 } else { u64::from(hi - lo + 1) }, tris.len() as u64)
+    };
+    let sizes: Vec<(u64, u64)> = scene.prototypes.iter().map(size).collect();
+    let placed = scene.prototypes.iter().filter(|r| !r.is_empty()).count();
+    let stored: u64 = sizes.iter().map(|&(v, t)| mesh_bytes(v, t, normals, uvs)).sum::<u64>() + (scene.instances.len() * size_of::<crate::accel::Instance>()) as u64;
+    let (flat_v, flat_t) = scene.instances.iter().fold((0u64, 0u64), |(v, t), i| {
+        let (pv, pt) = sizes[i.prototype as usize];
+        (v + pv, t + pt)
+    });
+    let flattened = mesh_bytes(flat_v, flat_t, normals, uvs);
+    format!(
+        "{} of {placed} shapegroups ({} triangles stored once); flattened: {flat_t} triangles, {} instead of {} ({} saved)",
+        scene.instances.len(),
+        sizes.iter().map(|s| s.1).sum::<u64>(),
+        mb(flattened),
+        mb(stored),
+        mb(flattened.saturating_sub(stored)),
+    )
 }
 
 /// The render's memory estimate ([`MemoryEstimate`], whose docs say what it counts).

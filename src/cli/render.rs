@@ -295,7 +295,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, cancel: &AtomicBool) -> anyh
     let backend = args.run.backend();
     let threads = args.run.threads();
     let pool = args.run.pool()?;
-    let accel = pool.install(|| build_accel(backend, &scene.mesh.positions, &scene.mesh.indices))?;
+    let accel = pool.install(|| build_accel(backend, &scene.geometry()))?;
     if log::enabled(Level::Info) {
         pool.install(|| warn_long_photon_pass(&scene, accel.as_ref(), &settings));
     }

@@ -694,7 +694,7 @@ mod tests {
             for q in 0..queries {
                 let u: Vec2 = Sampler::for_key(8, map_index, q).next_2d();
                 let p = Vec3::new(u.x - 0.5, u.y - 0.5, 0.0);
-                let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
+                let si = SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, inst: crate::accel::FLAT, material: 0 };
                 let g = est.gather(&vertex(&est, &si, &bsdf, Vec3::Z), 1.0, MAX_DELTA_CHAIN, &mut state.scratch());
                 worst_area = worst_area.max((g.delta_area - std::f32::consts::PI * area_scale * state.buffers.knn_r2()).abs() / g.delta_area);
                 sum += f64::from(g.l1.x);
@@ -763,7 +763,7 @@ mod tests {
         let mut with_outlier = disk.clone();
         with_outlier.push(Photon::new(Vec3::new(500.0, 0.0, 0.0), Vec3::Z, Vec3::splat(1.0 / 2000.0), 1.0));
         let bsdf = Bsdf::Diffuse(Diffuse { reflectance: Vec3::ONE });
-        let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 };
+        let si = SurfaceInteraction { p: centre, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, inst: crate::accel::FLAT, material: 0 };
         let mut state = GatherState::default();
         let mut estimate = |photons: Vec<Photon>| {
             let map = PhotonMap::new(KdTree::build(photons).unwrap(), 2000, None);
@@ -854,7 +854,7 @@ mod tests {
     }
 
     fn plane_point(p: Vec3) -> SurfaceInteraction {
-        SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, material: 0 }
+        SurfaceInteraction { p, p_error: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, frame: Frame::from_normal(Vec3::Z), uv: Vec2::ZERO, prim: 0, inst: crate::accel::FLAT, material: 0 }
     }
 
     /// T2's ΔA at a vertex whose estimate was skipped ([`CausticEstimator::area_at`], method.md §3.1) is the

@@ -4,7 +4,9 @@
 //! 1. **plan** — every value is range-checked, transforms composed, materials resolved; no file is touched;
 //! 2. **files** — every referenced file (meshes, environment maps) must exist;
 //! 3. **load** — meshes are loaded or generated, placed in world space and flattened into one triangle
-//!    soup (per-triangle material and flat flag); each emitting shape becomes one [`AreaLight`].
+//!    soup (per-triangle material and flat flag); each emitting shape becomes one [`AreaLight`]. The
+//!    shapes of the shapegroups that instances place follow, in their group's object space, each group's
+//!    triangles a prototype (module `instances`).
 //!
 //! Placement (pbrt-v4 §3.10, Mitsuba's `Mesh`): points by `to_world`, normals by its inverse transpose. A
 //! transform with negative determinant (a mirror) reverses the geometric normal `(p1−p0)×(p2−p0)` relative to
@@ -12,11 +14,13 @@
 //! side (the geometric normal is what one-sided emitters emit along). `flip_normals` negates the normals and
 //! swaps the winding too.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::desc::{PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
 use super::attributes::SceneAttributes;
+use super::instances;
 use super::material::Materials;
 use super::textures::Textures;
 use super::plugins::{self, Role};
@@ -27,6 +31,7 @@ use super::xml::Places;
 use super::Scene;
 use crate::camera::{self, Camera, CameraError, FovAxis, Projection};
 use crate::film::{filter, PixelFilter};
+use crate::accel::Instance;
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::emitter::{self, Emitter};
@@ -138,9 +143,27 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let given_camera = file.sensor.as_ref().map(|s| camera(ctx, s)).transpose()?;
     let textures = Textures::new(ctx, &file.texture, base_dir)?;
     let mut materials = Materials::new(ctx, &file.bsdf, textures)?;
+    // Shapes in the file's order, instances apart (module `instances`), then each shapegroup's shapes.
+    let groups: BTreeMap<String, usize> = file.shapegroup.keys().enumerate().map(|(i, k)| (k.clone(), i)).collect();
     let mut shape_plans = Vec::with_capacity(file.shape.len());
+    let mut instance_plans = Vec::new();
     for (i, shape) in file.shape.iter().enumerate() {
-        shape_plans.push(plan_shape(ctx, &join_index("shape", i), shape, &mut materials)?);
+        let key = join_index("shape", i);
+        match shape.plugin.kind.as_str() {
+            instances::INSTANCE => instance_plans.push(instances::plan_instance(ctx, &key, shape, &groups)?),
+            instances::SHAPEGROUP => return Err(instances::refuse_group_as_shape(ctx, &key)),
+            _ => shape_plans.push(plan_shape(ctx, &key, shape, &mut materials)?),
+        }
+    }
+    let mut group_plans = Vec::with_capacity(groups.len());
+    for (name, group) in &file.shapegroup {
+        let mut plans = Vec::with_capacity(group.shape.len());
+        for (k, shape) in group.shape.iter().enumerate() {
+            let key = join_index(&join_key(&join_key("shapegroup", name), "shape"), k);
+            instances::check_group_shape(ctx, &key, shape)?;
+            plans.push(plan_shape(ctx, &key, shape, &mut materials)?);
+        }
+        group_plans.push(plans);
     }
     let mut emitter_plans = Vec::with_capacity(file.emitter.len());
     for (i, emitter) in file.emitter.iter().enumerate() {
@@ -152,6 +175,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     // Phase 2: every referenced file exists.
     let files = shape_plans
         .iter()
+        .chain(group_plans.iter().flatten())
         .filter_map(|s| Some((join_key(&s.key, "filename"), base_dir.join(s.shape.filename()?))))
         .chain(emitter_plans.iter().filter_map(|e| match e {
             EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path.clone())),
@@ -177,7 +201,14 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut tri_has_uv = Vec::new();
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
-    for plan in &shape_plans {
+    // The flat shapes, then the groups that some instance places, each group's shapes together.
+    let n_flat = shape_plans.len();
+    let placed_groups: Vec<usize> = (0..group_plans.len()).filter(|g| instance_plans.iter().any(|(i, _)| *i as usize == *g)).collect();
+    let mut flat_vertices = None;
+    for (i, plan) in shape_plans.iter().chain(placed_groups.iter().flat_map(|&g| &group_plans[g])).enumerate() {
+        if i == n_flat {
+            flat_vertices = Some(mesh.positions.len());
+        }
         let (mut placed, shape_attributes) = load_and_place(ctx, plan, base_dir, &|name| attributes.reads(plan.material, name))?;
         let base = mesh.triangle_count();
         shape_first_triangle.push(base as u32);
@@ -239,7 +270,20 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
             EmitterPlan::Projector(projector, texture) => lights.extend(projector.light(texture)),
         }
     }
-    let bounds = mesh.bounds();
+    // Each placed group's triangles (the soup past the flat shapes' `flat`), and the instances.
+    let flat = shape_first_triangle.get(n_flat).map_or(mesh.triangle_count(), |&f| f as usize);
+    let flat_vertices = flat_vertices.unwrap_or(mesh.positions.len());
+    let mut prototypes = vec![0..0; group_plans.len()];
+    let mut first = n_flat;
+    for &g in &placed_groups {
+        let end = first + group_plans[g].len();
+        let triangle = |s: usize| shape_first_triangle.get(s).map_or(mesh.triangle_count() as u32, |&t| t);
+        prototypes[g] = triangle(first)..triangle(end);
+        first = end;
+    }
+    let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
+    let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances }.instance_bounds();
+    let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {
             super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
@@ -261,6 +305,9 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         attributes,
         tri_has_uv,
         shape_first_triangle,
+        flat_triangles: flat as u32,
+        prototypes,
+        instances,
         lights,
         camera,
         integrator,

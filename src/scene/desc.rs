@@ -31,9 +31,20 @@ pub(crate) struct SceneFile {
     pub texture: BTreeMap<String, PluginDesc>,
     #[serde(default)]
     pub shape: Vec<ShapeDesc>,
+    /// Mitsuba's `shapegroup`s by id: shapes placed only by `instance` shapes (module `instances`).
+    #[serde(default)]
+    pub shapegroup: BTreeMap<String, ShapegroupDesc>,
     /// Emitters that stand alone (`crate::emitter`); area emitters are a shape's `emitter`.
     #[serde(default)]
     pub emitter: Vec<PluginDesc>,
+}
+
+/// A `[shapegroup.<id>]` table: its shapes, in the group's object space.
+#[derive(Debug, DeriveDeserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ShapegroupDesc {
+    #[serde(default)]
+    pub shape: Vec<ShapeDesc>,
 }
 
 #[derive(Debug, DeriveDeserialize)]

@@ -1,14 +1,21 @@
 //! The one function that turns a backend's preliminary hit `(t, prim, u, v)` into shading data, and the
 //! rules for spawning rays from a surface. Both intersection backends go through it, so they shade
 //! identically (Mitsuba 3's `compute_surface_interaction`; pbrt-v4 `Triangle::InteractionFromIntersection`).
+//!
+//! A hit on an instance is shaded from its prototype's triangle in object space, then placed in world
+//! space as Mitsuba's `Instance::compute_surface_interaction` does (src/shapes/instance.cpp): the point by
+//! `to_world`, the geometric and shading normals by its inverse transpose (renormalised), `∂p/∂u`, `∂p/∂v`
+//! as vectors; texture coordinates and mesh attributes are the prototype's. The point's error bound is
+//! carried through the transform as pbrt-v4 carries a `Point3fi` (`Transform::operator()`): `|M|·δ` plus
+//! `γ₃·(|M|·|p| + |t|)`.
 
 use std::borrow::Cow;
 
 use super::Scene;
 use crate::bsdf::{Bsdf, HitFrame, ParamMut};
-use crate::accel::Hit;
+use crate::accel::{Hit, FLAT};
 use crate::texture::{MeshPoint, TexEval};
-use crate::math::{barycentric_point_error, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
+use crate::math::{barycentric_point_error, gamma, offset_ray_origin, spawn_t_min, Frame, Ray, Vec2, Vec3};
 
 /// Shadow rays stop this fraction short of their target (pbrt-v4's `ShadowEpsilon`), so the surface the
 /// target lies on does not occlude it.
@@ -31,8 +38,10 @@ pub struct SurfaceInteraction {
     pub frame: Frame,
     /// The hit's barycentrics `(u, v)` (Embree's convention: weights of p1 and p2).
     pub uv: Vec2,
-    /// Global triangle index.
+    /// Triangle index in the scene's soup (the prototype's triangle on an instance).
     pub prim: u32,
+    /// The instance hit (`accel::FLAT` on the flat soup).
+    pub inst: u32,
     /// Index into `Scene::bsdfs`.
     pub material: u32,
 }
@@ -69,9 +78,12 @@ impl Scene {
         let b0 = 1.0 - u - v;
         let p = b0 * p0 + u * p1 + v * p2;
         let p_error = barycentric_point_error([b0, u, v], [p0, p1, p2]);
+        let interpolated = if tri.flat { None } else { (b0 * tri.n[0] + u * tri.n[1] + v * tri.n[2]).try_normalize() };
+        if hit.inst != FLAT {
+            return self.instanced(ray, hit, p, p_error, tri.ng, interpolated, tri.material);
+        }
         // A zero-area triangle has no normal; face the ray so that spawned rays still leave the surface.
         let ng = tri.ng.unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
-        let interpolated = if tri.flat { None } else { (b0 * tri.n[0] + u * tri.n[1] + v * tri.n[2]).try_normalize() };
         let mut ns = interpolated.unwrap_or(ng);
         if ns.dot(ng) < 0.0 {
             ns = -ns;
@@ -84,7 +96,40 @@ impl Scene {
             frame: Frame::from_normal(ns),
             uv: Vec2::new(u, v),
             prim: hit.prim,
+            inst: FLAT,
             material: tri.material,
+        }
+    }
+
+    /// [`Scene::interaction`] on an instance: the object-space point (and its error), geometric normal and
+    /// interpolated normal placed in world space (module docs).
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn instanced(&self, ray: &Ray, hit: &Hit, p: Vec3, p_error: Vec3, ng: Option<Vec3>, interpolated: Option<Vec3>, material: u32) -> SurfaceInteraction {
+        let inst = &self.instances[hit.inst as usize];
+        let m = inst.to_world.matrix3;
+        let abs = glam::Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+        let t = Vec3::from(inst.to_world.translation);
+        let p_world = inst.to_world.transform_point3(p);
+        let p_error = Vec3::from(abs * glam::Vec3A::from(p_error)) + gamma(3) * (Vec3::from(abs * glam::Vec3A::from(p.abs())) + t.abs());
+        // Normals by the inverse transpose: the transpose of `to_object`'s linear part.
+        let normal_matrix = inst.to_object.matrix3.transpose();
+        let place = |n: Vec3| Vec3::from(normal_matrix * glam::Vec3A::from(n)).try_normalize();
+        let ng = ng.and_then(place).unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
+        let mut ns = interpolated.and_then(place).unwrap_or(ng);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        SurfaceInteraction {
+            p: p_world,
+            p_error,
+            ng,
+            ns,
+            frame: Frame::from_normal(ns),
+            uv: Vec2::new(hit.u, hit.v),
+            prim: hit.prim,
+            inst: hit.inst,
+            material,
         }
     }
 
@@ -139,6 +184,10 @@ impl Scene {
                     (f.s, f.t)
                 }
             }
+        };
+        let (dp_du, dp_dv) = match self.instances.get(si.inst as usize) {
+            Some(inst) => (inst.to_world.transform_vector3(dp_du), inst.to_world.transform_vector3(dp_dv)),
+            None => (dp_du, dp_dv),
         };
         HitFrame { frame: si.frame, ng: si.ng, dp_du, dp_dv }
     }

@@ -1,5 +1,6 @@
-//! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one flattened triangle soup with a material per
-//! triangle, the lights, the camera and the render settings.
+//! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one triangle soup with a material per triangle
+//! (the flattened shapes in world space, then each instanced shapegroup's shapes once, in object space,
+//! placed by instances), the lights, the camera and the render settings.
 //!
 //! Every table rejects unknown keys (`deny_unknown_fields`) and keys that do not apply to its `type`. Errors
 //! ([`SceneError`]) name the file, the key path (`shape[3].bsdf.reflectance`) with its line, and the
@@ -67,6 +68,14 @@
 //! shape_index = 2              # which shape of the file, default 0 (the first)
 //! face_normals = false         # as for obj / ply
 //!
+//! [shapegroup.pillar]         # Mitsuba's shapegroup: shapes stored once, rendered only where instances
+//! shape = [ { type = "cube", bsdf = "white" } ]   # place them (module `instances`)
+//!
+//! [[shape]]
+//! type = "instance"
+//! shapegroup = "pillar"
+//! to_world = [ { scale = [0.1, 1, 0.1] }, { translate = [0.7, 0, -0.7] } ]   # any invertible affine map
+//!
 //! [[emitter]]
 //! type = "envmap"
 //! filename = "assets/envmaps/studio.exr"
@@ -111,6 +120,7 @@ mod build;
 mod convert;
 mod desc;
 mod error;
+mod instances;
 mod interaction;
 mod material;
 mod note;
@@ -125,6 +135,7 @@ mod validate;
 mod xml;
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 pub use convert::convert_scene;
@@ -136,6 +147,7 @@ pub use shading::TriangleShading;
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
+use crate::accel::{Geometry, Instance};
 use crate::material::Material;
 use crate::texture::{AttributeTable, Texture};
 pub use crate::camera::Camera;
@@ -158,8 +170,17 @@ pub struct Scene {
     /// the fields above.
     shading: Vec<TriangleShading>,
     /// Per shape of the scene file, in its order, the index of its first triangle (ascending): a
-    /// triangle's shape for the `shape_index` and `prim_index` AOVs ([`Scene::shape_of`]).
+    /// triangle's shape for the `shape_index` and `prim_index` AOVs ([`Scene::shape_of`]); the shapes of
+    /// the placed shapegroups follow the other shapes.
     pub shape_first_triangle: Vec<u32>,
+    /// Triangles `[0, flat_triangles)` of `mesh` are the flat soup, in world space; the rest are the
+    /// prototypes', in object space (module `instances`).
+    pub flat_triangles: u32,
+    /// Per shapegroup (in the order of their ids), its triangles in `mesh` (empty when no instance
+    /// places it).
+    pub prototypes: Vec<Range<u32>>,
+    /// The instances: a prototype and its placement.
+    pub instances: Vec<Instance>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once), indexed
     /// by `tri_material`; [`Scene::bsdf_at`] evaluates one at a hit.
     pub materials: Vec<Material>,
@@ -177,7 +198,7 @@ pub struct Scene {
     pub lights: LightSet,
     pub camera: Camera,
     pub integrator: IntegratorSettings,
-    /// Bounds of all vertices.
+    /// Bounds of the flat soup's vertices and the instances' world boxes.
     pub bounds: Aabb,
     /// What the scene files say that was read but not used as written (module `note`).
     pub notes: Vec<SceneNote>,
@@ -280,15 +301,25 @@ impl Scene {
     /// whose first ray misses this box cannot become a caustic photon (method.md §2).
     #[must_use]
     pub fn delta_bounds(&self) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        for (tri, &m) in self.mesh.indices.iter().zip(&self.tri_material) {
-            if self.materials[m as usize].facts().has_delta {
-                for &v in tri {
-                    b = b.grow(self.mesh.positions[v as usize]);
+        let delta_box = |range: Range<u32>| {
+            let mut b = Aabb::EMPTY;
+            for t in range {
+                if self.materials[self.tri_material[t as usize] as usize].facts().has_delta {
+                    for &v in &self.mesh.indices[t as usize] {
+                        b = b.grow(self.mesh.positions[v as usize]);
+                    }
                 }
             }
-        }
-        b
+            b
+        };
+        let prototypes: Vec<Aabb> = self.prototypes.iter().map(|r| delta_box(r.clone())).collect();
+        self.instances.iter().fold(delta_box(0..self.flat_triangles), |b, i| b.union(i.world_bounds(prototypes[i.prototype as usize])))
+    }
+
+    /// The geometry the intersection backends are built from (`accel::build_accel`).
+    #[must_use]
+    pub fn geometry(&self) -> Geometry<'_> {
+        Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat_triangles, prototypes: &self.prototypes, instances: &self.instances }
     }
 
     /// Triangle `prim`'s shading record.

@@ -50,6 +50,13 @@ impl Role {
 
 /// Every key type `name` of `role` takes (the role's common keys, then its own); `None` for an unknown type.
 pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
+    // Mitsuba's instancing shapes (`scene::instances`): a group has only its shapes, an instance its
+    // transform (and the `<ref>` to its group).
+    match (role, name) {
+        (Role::Shape, super::instances::SHAPEGROUP) => return Some(Vec::new()),
+        (Role::Shape, super::instances::INSTANCE) => return Some(vec!["to_world"]),
+        _ => {}
+    }
     let own = match role {
         Role::Bsdf => bsdf::plugin(name)?.keys,
         Role::RFilter => props::find(filter::PLUGINS, name)?.keys,
@@ -141,7 +148,9 @@ mod tests {
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
         assert_eq!(keys(Role::Emitter, "spot").unwrap(), ["intensity", "cutoff_angle", "beam_width", "to_world"]);
         assert_eq!(keys(Role::Bsdf, "hair"), None);
-        assert_eq!(keys(Role::Shape, "shapegroup"), None);
+        assert_eq!(keys(Role::Shape, "shapegroup"), Some(Vec::new()));
+        assert_eq!(keys(Role::Shape, "instance"), Some(vec!["to_world"]));
+        assert_eq!(keys(Role::Shape, "bsplinecurve"), None);
         assert_eq!(keys(Role::RFilter, "lanczos").unwrap(), ["lobes"]);
         assert_eq!(keys(Role::Bsdf, "blendbsdf").unwrap(), ["weight", "bsdf_0", "bsdf_1"]);
     }

@@ -14,7 +14,7 @@ use caustica::mesh::{shapes, TriangleMesh};
 use std::path::Path;
 
 fn load(file: &str) -> TriangleMesh {
-    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &Default::default()).expect("load").1
+    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &Default::default()).expect("load").1.mesh
 }
 
 fn check(file: &str, n: usize) {
@@ -25,9 +25,9 @@ fn check(file: &str, n: usize) {
 /// Every backend (through `build_accel`) against the oracle over `mesh`, on `rays`.
 fn check_rays(file: &str, mesh: &TriangleMesh, rays: &RaySets) {
     let brute = BruteForce::new(&mesh.positions, &mesh.indices);
-    let mut backends: Vec<Box<dyn Accel>> = vec![build_accel(BackendKind::Bvh, &mesh.positions, &mesh.indices).expect("bvh")];
+    let mut backends: Vec<Box<dyn Accel>> = vec![build_accel(BackendKind::Bvh, &caustica::accel::Geometry::soup(&mesh.positions, &mesh.indices)).expect("bvh")];
     if cfg!(feature = "embree") {
-        backends.push(build_accel(BackendKind::Embree, &mesh.positions, &mesh.indices).expect("embree"));
+        backends.push(build_accel(BackendKind::Embree, &caustica::accel::Geometry::soup(&mesh.positions, &mesh.indices)).expect("embree"));
     }
     for accel in &backends {
         let mut disagree = 0;

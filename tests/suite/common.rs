@@ -166,7 +166,7 @@ pub struct Rendered {
 /// Renders like `caustica::render::render_image`, but keeps the film so that the per-pixel sample
 /// variance of the luminance is available.
 pub fn render_with_variance(scene: &Scene, backend: BackendKind, settings: &RenderSettings) -> Rendered {
-    let accel = build_accel(backend, &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{e}"));
+    let accel = build_accel(backend, &scene.geometry()).unwrap_or_else(|e| panic!("{e}"));
     let Rect { x0, y0, x1, y1 } = scene.camera.crop();
     let mut film = Film::for_camera(&scene.camera).expect("film");
     let cancel = AtomicBool::new(false);

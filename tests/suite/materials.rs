@@ -173,6 +173,19 @@ fn disk_and_cylinder_mis_match_mitsuba() {
 }
 
 #[test]
+fn instancing_pt_matches_mitsuba() {
+    // One shapegroup placed four times (turned, non-uniformly scaled, mirrored, tilted): the two-level
+    // acceleration and the placed shading frames against Mitsuba's instances.
+    matches_mitsuba("instancing", Estimator::Pt, 512);
+}
+
+#[test]
+fn instancing_mis_matches_mitsuba() {
+    // The instanced glass spheres' caustics: photons and BSDF-sampled caustic paths through instances.
+    matches_mitsuba("instancing", Estimator::Mis, 64);
+}
+
+#[test]
 fn thinlens_pt_matches_mitsuba() {
     // Depth of field: cubes before, on and behind the focal plane, a chequered floor across it; the lens
     // sample is the sample's second 2-D dimension, as Mitsuba draws it.

@@ -76,7 +76,7 @@ fn the_photon_pass_stores_only_chains_that_fit() {
     for (max_depth, longest) in [(-1, MAX_DELTA_CHAIN), (4, 2), (3, 1)] {
         let scene = scene(max_depth);
         assert_eq!(longest_chain(1, scene.integrator.max_segments()), longest);
-        let accel = build_accel(backend(), &scene.mesh.positions, &scene.mesh.indices).expect("accel");
+        let accel = build_accel(backend(), &scene.geometry()).expect("accel");
         let (map, stats) = trace_photons(&scene, accel.as_ref(), PhotonBudget::Emitted(100_000), 1, 0, &|| false).expect("photon pass");
         let chains: Vec<u32> = map.tree().decoded().iter().map(|d| u32::from(d.chain)).collect();
         let (shortest, longest_stored) = (chains.iter().min().copied(), chains.iter().max().copied());

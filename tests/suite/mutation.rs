@@ -129,7 +129,7 @@ fn render_small(mut scene: Scene, name: &str, what: &str) {
         PhotonBudget::Emitted(n) => PhotonBudget::Emitted(n.min(20_000)),
         PhotonBudget::Stored(m) => PhotonBudget::Stored(m.min(2_000)),
     };
-    let accel = build_accel(common::backend(), &scene.mesh.positions, &scene.mesh.indices).unwrap_or_else(|e| panic!("{name} {what}: {e}"));
+    let accel = build_accel(common::backend(), &scene.geometry()).unwrap_or_else(|e| panic!("{name} {what}: {e}"));
     let mut film = Film::with_crop(32, 32, scene.camera.crop()).expect("film");
     let cancel = AtomicBool::new(false);
     match render(&scene, accel.as_ref(), &settings, &mut film, &cancel, |_, _| {}, &|_| {}) {

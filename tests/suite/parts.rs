@@ -84,7 +84,7 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
 #[test]
 fn merged_parts_are_bit_identical_to_the_whole_render() {
     let scene = small_cornell();
-    let accel = build_accel(backend(), &scene.mesh.positions, &scene.mesh.indices).expect("accel");
+    let accel = build_accel(backend(), &scene.geometry()).expect("accel");
     let dir = temp_dir("exact");
     // 4 passes of 1 spp, and the paper's configuration: one pass (of 3 spp).
     for (spp, pass_spp) in [(4, 1), (3, u32::MAX)] {
@@ -125,7 +125,7 @@ fn merged_parts_are_bit_identical_to_the_whole_render() {
 fn merged_parts_under_a_gaussian_filter_are_bit_identical() {
     let mut scene = small_cornell();
     scene.camera.set_filter(PixelFilter::default());
-    let accel = build_accel(backend(), &scene.mesh.positions, &scene.mesh.indices).expect("accel");
+    let accel = build_accel(backend(), &scene.geometry()).expect("accel");
     let dir = temp_dir("gaussian");
     // Shares of the passes (2 passes, N = 2) and of the tiles (1 pass, N = 2 and 4).
     for (spp, pass_spp, n) in [(2, 1, 2), (2, u32::MAX, 2), (2, u32::MAX, 4)] {
@@ -152,7 +152,7 @@ fn merged_parts_under_a_gaussian_filter_are_bit_identical() {
 #[test]
 fn the_set_must_be_complete_unique_and_from_one_render() {
     let scene = small_cornell();
-    let accel = build_accel(backend(), &scene.mesh.positions, &scene.mesh.indices).expect("accel");
+    let accel = build_accel(backend(), &scene.geometry()).expect("accel");
     let dir = temp_dir("set");
     let s = settings(&scene, Estimator::Pt, 3, 1);
     let p = |i, n| part_file(&dir, &scene, accel.as_ref(), &s, Part { index: i, count: n });

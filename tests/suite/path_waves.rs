@@ -24,7 +24,7 @@ fn a_wave_traces_each_path_as_li_does() {
     for name in ["cornell-caustics.toml", "teapot-glossy.toml"] {
         let scene = common::load_scene(name);
         for kind in backends() {
-            let accel = build_accel(kind, &scene.mesh.positions, &scene.mesh.indices).unwrap();
+            let accel = build_accel(kind, &scene.geometry()).unwrap();
             // `pt`: no photon map, so no search whose order the wave changes.
             let tracer = PathTracer::new(&scene, accel.as_ref(), CausticEstimator::new(Estimator::Pt, None, 50, f32::INFINITY, 1.0), 1.0);
             let (width, height) = (scene.camera.width(), scene.camera.height());
@@ -68,7 +68,7 @@ fn a_wave_traces_each_path_as_li_does() {
 fn a_wave_with_a_photon_map_traces_each_path_as_li_does_with_its_own_memory() {
     for name in ["cornell-caustics.toml", "teapot-glossy.toml"] {
         let scene = common::load_scene(name);
-        let accel = build_accel(BackendKind::Bvh, &scene.mesh.positions, &scene.mesh.indices).unwrap();
+        let accel = build_accel(BackendKind::Bvh, &scene.geometry()).unwrap();
         let (map, _) = trace_photons(&scene, accel.as_ref(), PhotonBudget::Stored(20_000), 3, 0, &|| false).unwrap();
         let caustics = CausticEstimator::new(Estimator::Mis, Some(&map), 50, 0.05 * scene.bounds.bounding_sphere().1, scene.bounds.bounding_sphere().1);
         let tracer = PathTracer::new(&scene, accel.as_ref(), caustics, 4.0);

@@ -167,7 +167,7 @@ fn sorted_photons(map: &PhotonMap) -> Vec<Photon> {
 }
 
 fn trace(scene: &Scene, budget: PhotonBudget, seed: u64, pass: u64) -> (PhotonMap, PhotonPassStats) {
-    let accel = build_accel(BackendKind::Embree, &scene.mesh.positions, &scene.mesh.indices).expect("embree");
+    let accel = build_accel(BackendKind::Embree, &scene.geometry()).expect("embree");
     trace_photons(scene, accel.as_ref(), budget, seed, pass, &|| false).expect("photon pass")
 }
 

@@ -269,6 +269,7 @@ fn degenerate_hits_do_not_panic() {
             prim: 0,
             u: 0.25,
             v: 0.25,
+            inst: caustica::accel::FLAT,
         },
     );
     assert!(si.ng.is_finite() && si.ns.is_finite() && (si.ng.length() - 1.0).abs() < 1e-6);

@@ -204,7 +204,7 @@ fn everything_unsupported_is_reported_at_once() {
 {SENSOR}
 <texture type="volume" id="checks"/>
 <bsdf type="mixturebsdf" id="floor"/>
-<shape type="shapegroup"/>
+<shape type="bsplinecurve"/>
 <shape type="cube"><bsdf type="diffuse"><float name="roughness" value="0.3"/></bsdf></shape>
 <medium type="homogeneous" id="fog"/>
 </scene>"#
@@ -216,7 +216,7 @@ fn everything_unsupported_is_reported_at_once() {
         (2, "integrator type \"guided_path\""),
         (6, "texture type \"volume\""),
         (7, "bsdf type \"mixturebsdf\" is not supported yet"),
-        (8, "shape type \"shapegroup\""),
+        (8, "shape type \"bsplinecurve\""),
         (9, "<float name=\"roughness\">: `roughness` does not apply to bsdf type `diffuse` (its keys: reflectance)"),
         (10, "out of caustica's scope"),
     ] {

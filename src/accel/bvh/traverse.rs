@@ -245,6 +245,7 @@ impl Bvh {
             prim: u32::MAX,
             u: 0.0,
             v: 0.0,
+            inst: crate::accel::FLAT,
         };
         let mut stack = Stack::new();
         let mut cur = self.root;
@@ -271,6 +272,7 @@ impl Bvh {
                                 prim,
                                 u: u[lane],
                                 v: v[lane],
+                                inst: crate::accel::FLAT,
                             };
                             pre.t_max = t;
                         }

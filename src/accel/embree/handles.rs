@@ -148,6 +148,18 @@ impl Geometry {
         Ok(())
     }
 
+    /// Makes an instance geometry place `scene` (`RTC_GEOMETRY_TYPE_INSTANCE`) by the affine map
+    /// `columns` (`RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR`: the three axes, then the translation).
+    pub fn set_instance(&mut self, scene: &CommittedScene, columns: &[f32; 12]) {
+        // SAFETY: `raw` is a live instance geometry and `scene` a live, committed scene, which Embree
+        // retains for as long as the instance refers to it; `columns` holds the 12 floats of the format,
+        // which Embree copies before returning.
+        unsafe {
+            sys::rtcSetGeometryInstancedScene(self.raw, scene.raw());
+            sys::rtcSetGeometryTransform(self.raw, 0, sys::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, columns.as_ptr().cast());
+        }
+    }
+
     pub fn commit(&mut self) {
         // SAFETY: `raw` is a live geometry whose buffers are set.
         unsafe { sys::rtcCommitGeometry(self.raw) };
@@ -183,6 +195,14 @@ impl Scene {
         // SAFETY: both handles are live; the scene retains the geometry, and `geometry`'s `Drop`
         // releases our reference when it goes out of scope at the end of this function.
         unsafe { sys::rtcAttachGeometry(self.raw, geometry.raw) }
+    }
+
+    /// Attaches a committed geometry under the ID `id` (not yet used in this scene) and drops our
+    /// reference to it.
+    pub fn attach_by_id(&mut self, geometry: Geometry, id: u32) {
+        // SAFETY: as in `attach`; Embree reports an ID already in use through the device's error log,
+        // which the caller checks.
+        unsafe { sys::rtcAttachGeometryByID(self.raw, geometry.raw, id) }
     }
 
     pub fn set_flags(&mut self, flags: sys::RTCSceneFlags) {

@@ -5,9 +5,16 @@
 //! - `handles`: RAII owners of device, scene and geometry; the device's error callback.
 //! - `query`: the ray helper, the Embree 3 vs 4 call difference, per-thread FTZ/DAZ.
 //!
-//! The whole triangle soup is ONE `RTC_GEOMETRY_TYPE_TRIANGLE` geometry, so Embree's `primID` is the
+//! The whole flat soup is ONE `RTC_GEOMETRY_TYPE_TRIANGLE` geometry, so Embree's `primID` is the
 //! global triangle index, and `(t, prim, u, v)` come straight from `RTCRayHit` (Embree's barycentric
 //! convention is the crate's). Errors are checked once, after the build, never per ray.
+//!
+//! Instances (`EmbreeAccel::instanced`): each prototype is its own committed scene of one triangle
+//! geometry; each instance an `RTC_GEOMETRY_TYPE_INSTANCE` geometry of the top scene placing it
+//! (`rtcSetGeometryInstancedScene`, `rtcSetGeometryTransform`), attached under the ID of its index, so
+//! the hit's `instID[0]` is the instance and its `primID` the prototype's triangle, to which the
+//! prototype's first soup index is added. The flat soup takes the ID after the last instance. Embree 3.13
+//! and 4 both trace one level of instancing with the default query context.
 #![allow(unsafe_code)]
 
 mod handles;
@@ -16,7 +23,7 @@ mod sys;
 
 use self::handles::{CommittedScene, Device, Geometry, Scene};
 use self::query::{ensure_ftz_daz, hit_of, rtc_ray, rtc_ray_hit, was_occluded, QueryContext, INVALID_ID};
-use super::{intersect_each, occluded_each, Accel, Hit};
+use super::{occluded_each, Accel, Hit};
 use crate::error::AccelError;
 use crate::math::{Ray, Vec3};
 
@@ -42,8 +49,13 @@ const _: () = assert!(size_of::<Vec3>() == 12 && align_of::<Vec3>() == 4);
 
 /// An Embree scene over one triangle soup, ready for concurrent queries.
 pub struct EmbreeAccel {
-    // Field order is drop order: the scene is released before its device.
+    // Field order is drop order: the scene is released before the prototypes it instances, and they
+    // before their device.
     scene: CommittedScene,
+    /// The prototypes' scenes (instanced scenes only).
+    _prototypes: Vec<CommittedScene>,
+    /// Per instance, the soup index of its prototype's first triangle (empty without instances).
+    inst_first: Vec<u32>,
     /// Owns the device (and its error log) for as long as the scene lives.
     _device: Device,
     triangle_count: usize,
@@ -110,9 +122,82 @@ impl EmbreeAccel {
         device.check("rtcCommitScene")?;
         Ok(Self {
             scene,
+            _prototypes: Vec::new(),
+            inst_first: Vec::new(),
             _device: device,
             triangle_count: indices.len(),
         })
+    }
+
+    /// Builds the two-level scene: the triangles `flat` (hits numbered in `flat`) and the instances of
+    /// `g` (module docs).
+    ///
+    /// # Errors
+    /// As [`EmbreeAccel::new`].
+    pub fn instanced(g: &super::Geometry, flat: &[[u32; 3]]) -> Result<Self, AccelError> {
+        super::validate_soup(g.positions, g.indices)?;
+        let device = Device::new()?;
+        device.check("rtcNewDevice")?;
+        let mut prototypes = Vec::with_capacity(g.prototypes.len());
+        for p in 0..g.prototypes.len() {
+            let mut scene = Scene::new(&device)?;
+            let indices = g.prototype_indices(p);
+            if !indices.is_empty() {
+                let mut geometry = Geometry::new(&device, sys::RTC_GEOMETRY_TYPE_TRIANGLE)?;
+                geometry.set_new_buffer(&device, sys::RTC_BUFFER_TYPE_VERTEX, sys::RTC_FORMAT_FLOAT3, g.positions)?;
+                geometry.set_new_buffer(&device, sys::RTC_BUFFER_TYPE_INDEX, sys::RTC_FORMAT_UINT3, indices)?;
+                geometry.commit();
+                scene.attach(geometry);
+            }
+            scene.set_flags(SCENE_FLAGS);
+            scene.set_build_quality(BUILD_QUALITY);
+            prototypes.push(scene.commit());
+            device.check("building a prototype's scene")?;
+        }
+        let mut scene = Scene::new(&device)?;
+        for (id, inst) in g.instances.iter().enumerate() {
+            let mut geometry = Geometry::new(&device, sys::RTC_GEOMETRY_TYPE_INSTANCE)?;
+            let (m, t) = (inst.to_world.matrix3, inst.to_world.translation);
+            let columns = [m.x_axis.x, m.x_axis.y, m.x_axis.z, m.y_axis.x, m.y_axis.y, m.y_axis.z, m.z_axis.x, m.z_axis.y, m.z_axis.z, t.x, t.y, t.z];
+            geometry.set_instance(&prototypes[inst.prototype as usize], &columns);
+            geometry.commit();
+            scene.attach_by_id(geometry, id as u32);
+        }
+        device.check("creating the instances")?;
+        if !flat.is_empty() {
+            let mut geometry = Geometry::new(&device, sys::RTC_GEOMETRY_TYPE_TRIANGLE)?;
+            geometry.set_new_buffer(&device, sys::RTC_BUFFER_TYPE_VERTEX, sys::RTC_FORMAT_FLOAT3, g.positions)?;
+            geometry.set_new_buffer(&device, sys::RTC_BUFFER_TYPE_INDEX, sys::RTC_FORMAT_UINT3, flat)?;
+            geometry.commit();
+            scene.attach_by_id(geometry, g.instances.len() as u32);
+            device.check("creating the triangle geometry")?;
+        }
+        scene.set_flags(SCENE_FLAGS);
+        scene.set_build_quality(BUILD_QUALITY);
+        let scene = scene.commit();
+        device.check("rtcCommitScene")?;
+        Ok(Self {
+            scene,
+            _prototypes: prototypes,
+            inst_first: g.instances.iter().map(|i| g.prototypes[i.prototype as usize].start).collect(),
+            _device: device,
+            triangle_count: flat.len(),
+        })
+    }
+
+    /// The closest hit as Embree numbers it (an instance's triangle in its prototype).
+    #[inline(always)]
+    fn intersect_raw(&self, ray: &Ray) -> Option<Hit> {
+        ensure_ftz_daz();
+        let mut rayhit = rtc_ray_hit(ray);
+        QueryContext::new().intersect1(&self.scene, &mut rayhit);
+        hit_of(&rayhit)
+    }
+
+    /// `hit` with its prototype triangle numbered in the soup (a hit on an instance).
+    #[inline(always)]
+    fn in_soup(&self, hit: Option<Hit>) -> Option<Hit> {
+        hit.map(|h| if h.inst == super::FLAT { h } else { Hit { prim: h.prim + self.inst_first[h.inst as usize], ..h } })
     }
 
     /// Number of triangles in the scene.
@@ -178,9 +263,10 @@ impl EmbreeAccel {
         assert_eq!(rays.len(), out.len());
         ensure_ftz_daz();
         let mut ctx = QueryContext::new();
-        let one = |ray: &Ray| self.intersect(ray);
+        // Embree's own numbering (a prototype's triangles from 0), made the soup's at the end.
+        let one = |ray: &Ray| self.intersect_raw(ray);
         match batching {
-            Batching::Single => intersect_each(self, rays, out),
+            Batching::Single => out.iter_mut().zip(rays).for_each(|(o, ray)| *o = one(ray)),
             Batching::Packet4 => in_packets(4, rays, out, one, |r, o| ctx.intersect4(&self.scene, r, o)),
             Batching::Packet8 => in_packets(8, rays, out, one, |r, o| ctx.intersect8(&self.scene, r, o)),
             Batching::Packet16 => in_packets(16, rays, out, one, |r, o| ctx.intersect16(&self.scene, r, o)),
@@ -188,6 +274,9 @@ impl EmbreeAccel {
             Batching::Stream => ctx.intersect_stream(&self.scene, rays, out),
             #[cfg(not(embree3))]
             Batching::Stream => panic!("Embree {VERSION} has no ray streams"),
+        }
+        if !self.inst_first.is_empty() {
+            out.iter_mut().for_each(|o| *o = self.in_soup(*o));
         }
     }
 
@@ -224,11 +313,8 @@ fn in_packets<T>(n: usize, rays: &[Ray], out: &mut [T], one: impl Fn(&Ray) -> T,
 impl Accel for EmbreeAccel {
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        ensure_ftz_daz();
-        let mut rayhit = rtc_ray_hit(ray);
-        QueryContext::new().intersect1(&self.scene, &mut rayhit);
-        let hit = hit_of(&rayhit);
-        debug_assert!(hit.is_none_or(|h| (h.prim as usize) < self.triangle_count));
+        let hit = self.in_soup(self.intersect_raw(ray));
+        debug_assert!(hit.is_none_or(|h| h.inst != super::FLAT || (h.prim as usize) < self.triangle_count));
         hit
     }
 

@@ -16,6 +16,8 @@ use crate::math::Ray;
 
 /// `RTC_INVALID_GEOMETRY_ID` (`(unsigned int)-1`): `hit.geomID` after a miss.
 pub(super) const INVALID_ID: u32 = sys::RTC_INVALID_GEOMETRY_ID;
+// A hit's `instID[0]` is Embree's invalid ID on the flat soup: the crate's `FLAT`.
+const _: () = assert!(INVALID_ID == crate::accel::FLAT);
 
 /// The one place an `RTCRay` is built: every field set explicitly. `mask` is all ones (a zero mask
 /// would miss every geometry), `time` 0 (no motion blur), `id`/`flags` 0.
@@ -61,6 +63,8 @@ pub(super) fn hit_of(rayhit: &sys::RTCRayHit) -> Option<Hit> {
         prim: rayhit.hit.primID,
         u: rayhit.hit.u,
         v: rayhit.hit.v,
+        // The instance geometry's ID, or RTC_INVALID_GEOMETRY_ID (= `FLAT`) on the flat soup.
+        inst: rayhit.hit.instID[0],
     })
 }
 
@@ -258,6 +262,7 @@ macro_rules! packet_queries {
                         prim: packet.hit.primID[lane],
                         u: packet.hit.u[lane],
                         v: packet.hit.v[lane],
+                        inst: packet.hit.instID[0][lane],
                     });
                 }
             }

@@ -19,6 +19,7 @@ use super::super::note::{NoteKind, SceneNote};
 use super::values::{self, float_array, numbers, numbers_n, xyz, PROPERTY_TAGS};
 use super::super::desc::FilmDesc;
 use super::super::error::{cut, shown, SceneError};
+use super::super::instances::{INSTANCE, SHAPEGROUP};
 use super::super::spans::{join_index, join_key};
 
 /// Mitsuba's sampler types: caustica uses its own deterministic sampler for each (the expected image
@@ -58,6 +59,7 @@ pub(crate) fn convert(
         sensor: None,
         shapes: Vec::new(),
         emitters: Vec::new(),
+        shapegroups: Table::new(),
         integrator_seen: false,
         sampler_seen: false,
         anonymous: HashMap::new(),
@@ -74,6 +76,7 @@ pub(crate) fn convert(
                 };
                 c.named_bsdf(el, &name)?;
             }
+            "shape" if el.attr("type") == Some(SHAPEGROUP) => c.shapegroup(el)?,
             "shape" => c.shape(el)?,
             // A texture without an id is still checked (as Mitsuba instantiates it), though nothing uses it.
             "texture" => match el.attr("id") {
@@ -113,6 +116,9 @@ pub(crate) fn convert(
     if !c.emitters.is_empty() {
         doc.insert("emitter".into(), Value::Array(c.emitters));
     }
+    if !c.shapegroups.is_empty() {
+        doc.insert("shapegroup".into(), Value::Table(c.shapegroups));
+    }
     Ok((doc, c.places, c.notes))
 }
 
@@ -133,6 +139,8 @@ struct Converter<'a> {
     integrator: Table,
     sensor: Option<Table>,
     shapes: Vec<Value>,
+    /// `[shapegroup.<id>]` tables (`scene::instances`).
+    shapegroups: Table,
     emitters: Vec<Value>,
     integrator_seen: bool,
     sampler_seen: bool,
@@ -576,9 +584,58 @@ impl<'a> Converter<'a> {
 
     fn shape(&mut self, el: &'a Element) -> Result<(), SceneError> {
         let key = join_index("shape", self.shapes.len());
+        let table = self.shape_table(el, &key)?;
+        self.shapes.push(Value::Table(table));
+        Ok(())
+    }
+
+    /// `<shape type="shapegroup" id="…">` and its shapes → `[shapegroup.<id>]` (`scene::instances`; Mitsuba's
+    /// `ShapeGroup` refuses nested groups, instances and emitters in it, which the builder reports at the
+    /// shape's key, placed here).
+    fn shapegroup(&mut self, el: &'a Element) -> Result<(), SceneError> {
+        el.check_attrs(PLUGIN_ATTRS)?;
+        let id = el.required("id")?;
+        let key = join_key("shapegroup", id);
+        self.places.insert(&key, Place::plugin(el));
+        let mut shapes = Vec::new();
+        for child in &el.children {
+            let child = self.deref(child, "shape")?;
+            if child.tag != "shape" {
+                return Err(unsupported(child, el));
+            }
+            let shape_key = join_index(&join_key(&key, "shape"), shapes.len());
+            let table = if child.attr("type") == Some(SHAPEGROUP) {
+                // Kept for the builder's error at its key (Mitsuba: "Nested ShapeGroup is not permitted").
+                self.plugin_table(child, &shape_key)?
+            } else {
+                self.shape_table(child, &shape_key)?
+            };
+            shapes.push(Value::Table(table));
+        }
+        self.shapegroups.insert(id.to_string(), Value::Table(Table::from_iter([("shape".to_string(), Value::Array(shapes))])));
+        Ok(())
+    }
+
+    /// A shape's table at `key`: its properties, transform, BSDF and area emitter, or, for an instance, the
+    /// id of the shapegroup its `<ref>` names (`shapegroup = "<id>"`).
+    fn shape_table(&mut self, el: &'a Element, key: &str) -> Result<Table, SceneError> {
+        let key = key.to_string();
         let mut table = self.plugin_table(el, &key)?;
         for child in &el.children {
             if self.property_or_transform(el, child, &key, &mut table)? {
+                continue;
+            }
+            if el.attr("type") == Some(INSTANCE) && child.tag == "ref" {
+                let group = self.referenced(child, "shape")?;
+                if group.attr("type") != Some(SHAPEGROUP) {
+                    return Err(child.error("an instance refers to a shapegroup (Mitsuba: \"Only a shapegroup can be specified in an instance.\")"));
+                }
+                if table.contains_key("shapegroup") {
+                    return Err(child.error("an instance places one shapegroup (Mitsuba: \"Only a single shapegroup can be specified per instance.\")"));
+                }
+                let id = group.required("id")?;
+                self.places.insert(&join_key(&key, "shapegroup"), Place::plugin(child));
+                table.insert("shapegroup".into(), Value::String(id.to_string()));
                 continue;
             }
             let tag = match child.tag.as_str() {
@@ -604,8 +661,7 @@ impl<'a> Converter<'a> {
             };
             table.insert(slot.into(), value);
         }
-        self.shapes.push(Value::Table(table));
-        Ok(())
+        Ok(table)
     }
 
     fn emitter(&mut self, el: &Element) -> Result<(), SceneError> {

@@ -34,7 +34,7 @@ impl fmt::Display for Unsupported {
 }
 
 const LATER_MATERIALS: &str = "not supported yet (textures and materials are the next part of caustica's Mitsuba support)";
-const LATER_SHAPES: &str = "not supported yet (analytic shapes, instancing, further emitters and sensors are planned)";
+const LATER_SHAPES: &str = "not supported yet (analytic shapes, further emitters and sensors are planned)";
 const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
@@ -46,8 +46,6 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("bsdf", "polarizer", "a linear polarizer", OUT_OF_SCOPE),
     ("bsdf", "retarder", "a polarization retarder", OUT_OF_SCOPE),
     ("bsdf", "circular", "a circular polarizer", OUT_OF_SCOPE),
-    ("shape", "shapegroup", "a group of shapes to instance", LATER_SHAPES),
-    ("shape", "instance", "an instance of a shapegroup", LATER_SHAPES),
     ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "linearcurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "sdfgrid", "a signed distance field", OUT_OF_SCOPE),

@@ -270,6 +270,31 @@ impl Writer {
     }
 }
 
+impl Writer {
+    /// A `<shape>` at key path `at`: its properties, BSDF and area emitter; an instance's `shapegroup` as
+    /// the `<ref>` Mitsuba reads.
+    fn shape(&mut self, at: &str, s: &Value) -> std::result::Result<(), String> {
+        let t = s.as_table().ok_or_else(|| format!("{at}: not a table"))?;
+        self.open(&format!("<shape type=\"{}\">", esc(Writer::kind(at, t)?)));
+        self.body(at, t, &["bsdf", "emitter", "shapegroup"])?;
+        if let Some(id) = t.get("shapegroup") {
+            let id = id.as_str().ok_or_else(|| format!("{at}.shapegroup: not a string"))?;
+            self.line(&format!("<ref id=\"{}\"/>", esc(id)));
+        }
+        if let Some(b) = t.get("bsdf") {
+            self.bsdf(&format!("{at}.bsdf"), b, None)?;
+        }
+        if let Some(e) = t.get("emitter").and_then(Value::as_table) {
+            let eat = format!("{at}.emitter");
+            self.open(&format!("<emitter type=\"{}\">", esc(Writer::kind(&eat, e)?)));
+            self.body(&eat, e, &[])?;
+            self.close("emitter");
+        }
+        self.close("shape");
+        Ok(())
+    }
+}
+
 /// Mitsuba 3 XML text of the scene description `doc`; `source` names where it came from (a comment).
 pub(crate) fn to_xml(doc: &Table, source: &str) -> std::result::Result<String, String> {
     let mut w = Writer { out: String::new(), depth: 0 };
@@ -291,21 +316,19 @@ pub(crate) fn to_xml(doc: &Table, source: &str) -> std::result::Result<String, S
             w.bsdf(&format!("bsdf.{name}"), b, Some(name))?;
         }
     }
+    // Shapegroups before the instances that refer to them (`scene::instances`).
+    if let Some(groups) = doc.get("shapegroup").and_then(Value::as_table) {
+        for (id, g) in groups {
+            let at = format!("shapegroup.{id}");
+            w.open(&format!("<shape type=\"shapegroup\" id=\"{}\">", esc(id)));
+            for (i, s) in g.get("shape").and_then(Value::as_array).map_or(&[][..], Vec::as_slice).iter().enumerate() {
+                w.shape(&format!("{at}.shape[{i}]"), s)?;
+            }
+            w.close("shape");
+        }
+    }
     for (i, s) in doc.get("shape").and_then(Value::as_array).map_or(&[][..], Vec::as_slice).iter().enumerate() {
-        let at = format!("shape[{i}]");
-        let t = s.as_table().ok_or_else(|| format!("{at}: not a table"))?;
-        w.open(&format!("<shape type=\"{}\">", esc(Writer::kind(&at, t)?)));
-        w.body(&at, t, &["bsdf", "emitter"])?;
-        if let Some(b) = t.get("bsdf") {
-            w.bsdf(&format!("{at}.bsdf"), b, None)?;
-        }
-        if let Some(e) = t.get("emitter").and_then(Value::as_table) {
-            let eat = format!("{at}.emitter");
-            w.open(&format!("<emitter type=\"{}\">", esc(Writer::kind(&eat, e)?)));
-            w.body(&eat, e, &[])?;
-            w.close("emitter");
-        }
-        w.close("shape");
+        w.shape(&format!("shape[{i}]"), s)?;
     }
     for (i, e) in doc.get("emitter").and_then(Value::as_array).map_or(&[][..], Vec::as_slice).iter().enumerate() {
         let at = format!("emitter[{i}]");
