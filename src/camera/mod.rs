@@ -244,6 +244,7 @@ impl Camera {
         camera.set_resolution(width, height)?;
         Ok(camera)
     }
+
     #[must_use]
     pub fn width(&self) -> u32 {
         self.width
