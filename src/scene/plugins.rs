@@ -146,7 +146,7 @@ mod tests {
             }
         }
         assert_eq!(keys(Role::Shape, "ply").unwrap(), ["to_world", "bsdf", "emitter", "flip_normals", "filename", "face_normals", "flip_tex_coords"]);
-        assert_eq!(keys(Role::Emitter, "spot").unwrap(), ["intensity", "cutoff_angle", "beam_width", "to_world"]);
+        assert_eq!(keys(Role::Emitter, "spot").unwrap(), ["intensity", "cutoff_angle", "beam_width", "texture", "to_world"]);
         assert_eq!(keys(Role::Bsdf, "hair"), None);
         assert_eq!(keys(Role::Shape, "shapegroup"), Some(Vec::new()));
         assert_eq!(keys(Role::Shape, "instance"), Some(vec!["to_world"]));
