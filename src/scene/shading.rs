@@ -79,8 +79,8 @@ mod tests {
         assert_eq!(r[1].n, [Vec3::ZERO; 3]);
         assert_eq!((r[1].material, r[1].flat), (7, true));
         let degenerate = TriangleMesh { indices: vec![[0, 1, 1]], ..mesh.clone() };
-        assert_eq!(shading_records(&degenerate, &[0], &[false])[0].ng, None);
+        assert_eq!(shading_records(&degenerate, &[0], &[false], |_| false)[0].ng, None);
         let no_normals = TriangleMesh { normals: None, ..mesh };
-        assert!(shading_records(&no_normals, &[3, 7], &[false, false]).iter().all(|t| t.flat));
+        assert!(shading_records(&no_normals, &[3, 7], &[false, false], |_| false).iter().all(|t| t.flat));
     }
 }
