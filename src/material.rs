@@ -38,7 +38,16 @@ pub struct Facts {
     pub has_non_delta: bool,
     pub chooses_lobe: bool,
     pub transmits: bool,
+    /// The BSDF may be anisotropic at some hit ([`Bsdf::anisotropic`]): its shading frame's tangent follows
+    /// `∂p/∂u` (`Scene::interaction`). With a textured roughness it is decided from the paths bound
+    /// ([`ANISOTROPY_KEYS`]), not from the textures' values: two textures with equal ranges still differ
+    /// from point to point.
+    pub anisotropic: bool,
 }
+
+/// The parameters whose textures can make a BSDF anisotropic where its template is not: a roughness along
+/// one axis, or principled's anisotropy.
+pub const ANISOTROPY_KEYS: [&str; 3] = ["alpha_u", "alpha_v", "anisotropic"];
 
 impl Facts {
     fn of(bsdf: &Bsdf) -> Self {
@@ -47,8 +56,15 @@ impl Facts {
             has_non_delta: bsdf.has_non_delta(),
             chooses_lobe: bsdf.chooses_lobe(),
             transmits: bsdf.transmits(),
+            anisotropic: bsdf.anisotropic(),
         }
     }
+}
+
+/// Whether a texture bound at `path` (`bsdf_0.alpha_u`) can make the BSDF anisotropic.
+fn binds_anisotropy(path: &str) -> bool {
+    let key = path.rsplit('.').next().unwrap_or(path);
+    ANISOTROPY_KEYS.contains(&key)
 }
 
 
@@ -93,7 +109,8 @@ impl Material {
         }
         bindings.sort_unstable();
         bindings.dedup_by_key(|b| b.slot);
-        let facts = textured_facts(&template, &bindings, range);
+        let mut facts = textured_facts(&template, &bindings, range);
+        facts.anisotropic |= template.anisotropic() || bound.iter().any(|(path, _)| binds_anisotropy(path));
         Ok(Self { template, bindings: bindings.into_boxed_slice(), facts })
     }
 
@@ -101,7 +118,9 @@ impl Material {
     /// material was made (a `mesh_attribute`'s values, read with the shapes).
     pub fn refine_facts(&mut self, range: impl Fn(u32) -> Textured) {
         if self.is_textured() {
+            let anisotropic = self.facts.anisotropic;
             self.facts = textured_facts(&self.template, &self.bindings, range);
+            self.facts.anisotropic |= anisotropic;
         }
     }
 

@@ -76,6 +76,9 @@ impl Model for Blend {
     fn has_non_delta(&self) -> bool {
         (self.weight < 1.0 && self.bsdf_0.has_non_delta()) || (self.weight > 0.0 && self.bsdf_1.has_non_delta())
     }
+    fn anisotropic(&self) -> bool {
+        self.bsdf_0.anisotropic() || self.bsdf_1.anisotropic()
+    }
     fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
         v.param("weight", ParamMut::Float(&mut self.weight));
         v.nested("bsdf_0", &mut self.bsdf_0);

@@ -99,6 +99,9 @@ impl Model for Mask {
     fn has_non_delta(&self) -> bool {
         self.alpha() > 0.0 && self.bsdf.has_non_delta()
     }
+    fn anisotropic(&self) -> bool {
+        self.bsdf.anisotropic()
+    }
     fn transmits(&self) -> bool {
         self.alpha() < 1.0 || self.bsdf.transmits()
     }

@@ -78,6 +78,12 @@ pub struct Microfacet {
 }
 
 impl Microfacet {
+    /// Whether the roughness differs along the tangent and the bitangent.
+    #[must_use]
+    pub fn is_anisotropic(&self) -> bool {
+        self.alpha_u != self.alpha_v
+    }
+
     /// The texturable roughness of the microfacet plugins (`bsdf::params`): `alpha` (both axes), or
     /// `alpha_u` and `alpha_v` apart.
     pub(super) fn visit_params(&mut self, v: &mut dyn super::ParamVisitor) {

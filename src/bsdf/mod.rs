@@ -129,6 +129,11 @@ pub(crate) trait Model {
     fn transmits(&self) -> bool {
         false
     }
+    /// Whether the response turns with the shading frame's tangent about the normal (see
+    /// [`Bsdf::anisotropic`]); by default not.
+    fn anisotropic(&self) -> bool {
+        false
+    }
     /// The parameters a texture can drive and the nested bsdfs, in a fixed order (module `params`); by
     /// default none.
     fn visit_params(&mut self, _visitor: &mut dyn ParamVisitor) {}
@@ -203,6 +208,9 @@ macro_rules! bsdf_types {
             }
             fn transmits(&self) -> bool {
                 match self { $(Bsdf::$variant(m) => m.transmits(),)* }
+            }
+            fn anisotropic(&self) -> bool {
+                match self { $(Bsdf::$variant(m) => m.anisotropic(),)* }
             }
             fn visit_params(&mut self, visitor: &mut dyn ParamVisitor) {
                 match self { $(Bsdf::$variant(m) => m.visit_params(visitor),)* }
@@ -360,6 +368,16 @@ impl Bsdf {
     #[must_use]
     pub fn transmits(&self) -> bool {
         Model::transmits(self)
+    }
+
+    /// Whether the response turns with the shading frame's tangent about the normal: anisotropic roughness
+    /// (`alpha_u ≠ alpha_v`, principled's `anisotropic > 0`), alone or in a blend, two-sided or masked BSDF.
+    /// Such a BSDF is evaluated in Mitsuba's shading frame, whose tangent follows `∂p/∂u`
+    /// (`Scene::interaction`); for every other BSDF the tangent's direction changes nothing. (A normal or bump
+    /// map builds its own frame from `∂p/∂u`, whatever it wraps.)
+    #[must_use]
+    pub fn anisotropic(&self) -> bool {
+        Model::anisotropic(self)
     }
 
     /// Walks the parameters a texture can drive and the nested bsdfs (module `params`).

@@ -357,6 +357,9 @@ impl Model for Principled {
     fn has_non_delta(&self) -> bool {
         true
     }
+    fn anisotropic(&self) -> bool {
+        self.distribution.is_anisotropic()
+    }
 
     fn transmits(&self) -> bool {
         self.has_spec_trans

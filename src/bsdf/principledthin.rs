@@ -290,6 +290,9 @@ impl Model for PrincipledThin {
     fn has_non_delta(&self) -> bool {
         true
     }
+    fn anisotropic(&self) -> bool {
+        self.reflection.is_anisotropic() || self.transmission.is_anisotropic()
+    }
 
     fn transmits(&self) -> bool {
         self.has_spec_trans || self.has_diff_trans

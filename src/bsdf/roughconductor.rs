@@ -76,6 +76,9 @@ impl Model for RoughConductor {
     fn has_non_delta(&self) -> bool {
         self.specular_reflectance.max_element() > 0.0
     }
+    fn anisotropic(&self) -> bool {
+        self.distribution.is_anisotropic()
+    }
     fn visit_params(&mut self, v: &mut dyn ParamVisitor) {
         v.param("specular_reflectance", ParamMut::Rgb(&mut self.specular_reflectance));
         self.distribution.visit_params(v);

@@ -188,6 +188,9 @@ impl Model for RoughDielectric {
     fn has_non_delta(&self) -> bool {
         self.specular_reflectance.max_element() > 0.0 || self.specular_transmittance.max_element() > 0.0
     }
+    fn anisotropic(&self) -> bool {
+        self.distribution.is_anisotropic()
+    }
 
     fn transmits(&self) -> bool {
         true

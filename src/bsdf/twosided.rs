@@ -79,6 +79,9 @@ impl Model for TwoSided {
     fn has_non_delta(&self) -> bool {
         self.0.has_non_delta()
     }
+    fn anisotropic(&self) -> bool {
+        self.0.anisotropic()
+    }
     fn transmits(&self) -> bool {
         self.0.transmits()
     }

@@ -176,6 +176,9 @@ impl Model for Ward {
     fn has_non_delta(&self) -> bool {
         self.energy_scale > 0.0 && (self.diffuse_reflectance.max_element() > 0.0 || self.specular_reflectance.max_element() > 0.0)
     }
+    fn anisotropic(&self) -> bool {
+        self.alpha_u != self.alpha_v
+    }
 
     /// 0.6's `getDiffuseReflectance` of `ward`: its (scaled) diffuse reflectance.
     fn diffuse_reflectance(&self, _wo: Vec3) -> Vec3 {

@@ -295,7 +295,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let attributes = attributes.finish(&mut materials, &textures);
     Ok(Scene {
         path: name.to_path_buf(),
-        shading: super::shading::shading_records(&mesh, &tri_material, &tri_flat),
+        shading: super::shading::shading_records(&mesh, &tri_material, &tri_flat, |m| materials[m as usize].facts().anisotropic),
         mesh,
         tri_material,
         tri_flat,

@@ -80,7 +80,8 @@ impl Scene {
         let p_error = barycentric_point_error([b0, u, v], [p0, p1, p2]);
         let interpolated = if tri.flat { None } else { (b0 * tri.n[0] + u * tri.n[1] + v * tri.n[2]).try_normalize() };
         if hit.inst != FLAT {
-            return self.instanced(ray, hit, p, p_error, tri.ng, interpolated, tri.material);
+            let si = self.instanced(ray, hit, p, p_error, tri.ng, interpolated, tri.material);
+            return if tri.anisotropic { self.with_tangent_frame(si) } else { si };
         }
         // A zero-area triangle has no normal; face the ray so that spawned rays still leave the surface.
         let ng = tri.ng.unwrap_or_else(|| -ray.dir.normalize_or(Vec3::Z));
@@ -88,7 +89,7 @@ impl Scene {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        SurfaceInteraction {
+        let si = SurfaceInteraction {
             p,
             p_error,
             ng,
@@ -98,7 +99,24 @@ impl Scene {
             prim: hit.prim,
             inst: FLAT,
             material: tri.material,
+        };
+        if tri.anisotropic { self.with_tangent_frame(si) } else { si }
+    }
+
+    /// `si` with Mitsuba's shading frame (`SurfaceInteraction::initialize_sh_frame`,
+    /// include/mitsuba/render/interaction.h): the tangent is `∂p/∂u` ([`Scene::hit_frame`]) made orthogonal to
+    /// the shading normal by Gram–Schmidt, the bitangent `n × s`; where `∂p/∂u` is zero or along `n`, the
+    /// frame around `n` alone. Only an anisotropic material's hits need it (`TriangleShading::anisotropic`):
+    /// turning the frame about `n` changes nothing else's response, and skipping it keeps every other
+    /// material's frame, and its images, as they were.
+    #[inline(never)]
+    fn with_tangent_frame(&self, mut si: SurfaceInteraction) -> SurfaceInteraction {
+        let n = si.ns;
+        let dp_du = self.hit_frame(&si).dp_du;
+        if let Some(s) = (dp_du - n * n.dot(dp_du)).try_normalize() {
+            si.frame = Frame { s, t: n.cross(s), n };
         }
+        si
     }
 
     /// [`Scene::interaction`] on an instance: the object-space point (and its error), geometric normal and

@@ -1,5 +1,5 @@
 //! Per-triangle shading records: what [`Scene::interaction`](super::Scene::interaction) reads of a triangle
-//! (its vertex positions and normals, its material and flatness), copied at load into one record per
+//! (its vertex positions and normals, its material, flatness and whether the material is anisotropic), copied at load into one record per
 //! triangle, so that a hit costs one memory access instead of a chain (index, then positions and normals
 //! at the indices' vertices). On a 130k-triangle mesh the chain missed the cache twice per hit. The record
 //! also holds the triangle's unit geometric normal, computed once by the one rule
@@ -23,11 +23,15 @@ pub struct TriangleShading {
     pub material: u32,
     /// The shading normal is the geometric normal (`Scene::tri_flat`, or a mesh without normals).
     pub flat: bool,
+    /// The material may be anisotropic (`material::Facts::anisotropic`): the shading frame's tangent then
+    /// follows `∂p/∂u` (`Scene::interaction`). In the record's padding: a hit reads no material to know.
+    pub anisotropic: bool,
 }
 
-/// The records of every triangle of `mesh`, in triangle order.
+/// The records of every triangle of `mesh`, in triangle order; `anisotropic` tells of a material index
+/// whether it may be anisotropic.
 #[must_use]
-pub fn shading_records(mesh: &TriangleMesh, tri_material: &[u32], tri_flat: &[bool]) -> Vec<TriangleShading> {
+pub fn shading_records(mesh: &TriangleMesh, tri_material: &[u32], tri_flat: &[bool], anisotropic: impl Fn(u32) -> bool) -> Vec<TriangleShading> {
     debug_assert_eq!(tri_material.len(), mesh.indices.len());
     debug_assert_eq!(tri_flat.len(), mesh.indices.len());
     mesh.indices
@@ -42,6 +46,7 @@ pub fn shading_records(mesh: &TriangleMesh, tri_material: &[u32], tri_flat: &[bo
                 ng: triangle_normal_area(p).map(|(n, _)| n),
                 material,
                 flat: normals.is_none(),
+                anisotropic: anisotropic(material),
             }
         })
         .collect()
@@ -64,17 +69,18 @@ mod tests {
             normals: Some(vec![Vec3::Z, Vec3::X, Vec3::Y, Vec3::new(0.6, 0.0, 0.8)]),
             uvs: None,
         };
-        let r = shading_records(&mesh, &[3, 7], &[false, true]);
+        let r = shading_records(&mesh, &[3, 7], &[false, true], |m| m == 7);
         assert_eq!(r[0].p, [mesh.positions[0], mesh.positions[1], mesh.positions[2]]);
         assert_eq!(r[0].n, [Vec3::Z, Vec3::X, Vec3::Y]);
-        assert_eq!((r[0].material, r[0].flat), (3, false));
+        assert_eq!((r[0].material, r[0].flat, r[0].anisotropic), (3, false, false));
+        assert!(r[1].anisotropic);
         assert_eq!(r[0].ng, Some(Vec3::Z));
         assert_eq!(r[1].p, [mesh.positions[1], mesh.positions[3], mesh.positions[2]]);
         assert_eq!(r[1].n, [Vec3::ZERO; 3]);
         assert_eq!((r[1].material, r[1].flat), (7, true));
         let degenerate = TriangleMesh { indices: vec![[0, 1, 1]], ..mesh.clone() };
-        assert_eq!(shading_records(&degenerate, &[0], &[false])[0].ng, None);
+        assert_eq!(shading_records(&degenerate, &[0], &[false], |_| false)[0].ng, None);
         let no_normals = TriangleMesh { normals: None, ..mesh };
-        assert!(shading_records(&no_normals, &[3, 7], &[false, false]).iter().all(|t| t.flat));
+        assert!(shading_records(&no_normals, &[3, 7], &[false, false], |_| false).iter().all(|t| t.flat));
     }
 }

@@ -364,3 +364,16 @@ fn projector_mis_matches_mitsuba() {
     // the glass sphere) carry their intensity; the glass sphere's caustic is the area light's.
     matches_mitsuba("projector", Estimator::Mis, 64);
 }
+
+#[test]
+fn anisotropy_pt_matches_mitsuba() {
+    // Anisotropic roughness along Mitsuba's tangent (∂p/∂u): with the frame around the normal alone this
+    // scene's image was 7–8 % brighter than Mitsuba's (RMSE 0.095 at 1,024 spp).
+    matches_mitsuba("anisotropy", Estimator::Pt, 1024);
+}
+
+#[test]
+fn anisotropy_mis_matches_mitsuba() {
+    // The glass sphere's caustic on the anisotropic floor: photons gathered through the same frame.
+    matches_mitsuba("anisotropy", Estimator::Mis, 64);
+}
