@@ -243,7 +243,8 @@ fn texture_errors_name_their_keys() {
         ("bsdf = { type = \"diffuse\", reflectance = { texture = \"wood\" } }", "shape[0].bsdf.reflectance.texture", "unknown texture `wood`"),
         ("bsdf = { type = \"diffuse\", reflectance = { type = \"bitmap\", filename = \"missing.png\" } }", "shape[0].bsdf.reflectance.filename", "missing.png"),
         ("emitter = { type = \"area\", radiance = { texture = \"sky\" } }", "shape[0].emitter.radiance.texture", "unknown texture `sky`"),
-        ("emitter = { type = \"area\", radiance = { type = \"checkerboard\", color0 = 2 } }", "shape[0].emitter.radiance.color0", "must be in [0, 1]"),
+        // An RGB colour must lie in [0, 1] (a single number is Mitsuba's unbounded `uniform`, accepted).
+        ("emitter = { type = \"area\", radiance = { type = \"checkerboard\", color0 = [2, 0, 0] } }", "shape[0].emitter.radiance.color0", "must be in [0, 1]"),
         ("bsdf = { type = \"roughconductor\", alpha = { type = \"checkerboard\", color0 = 0, color1 = 0 } }", "shape[0].bsdf.alpha", "the texture's mean: the roughness alpha must be > 0"),
         ("bsdf = { type = \"normalmap\", normalmap = [0.5, 0.5, 1], bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "must be a texture"),
         ("bsdf = { type = \"normalmap\", bsdf = { type = \"diffuse\" } }", "shape[0].bsdf.normalmap", "missing"),
