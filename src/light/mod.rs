@@ -1,4 +1,5 @@
-//! Light sources and their sampling: emissive triangles ([`AreaLight`], Mitsuba's `area` emitter), the
+//! Light sources and their sampling: emissive triangles or analytic shapes (module `shapes`: sphere, disk,
+//! cylinder) ([`AreaLight`], Mitsuba's `area` emitter), the
 //! equirectangular environment map ([`EnvMap`], Mitsuba's `envmap`), the constant environment
 //! ([`Light::Constant`], Mitsuba's `constant`) and the delta lights ([`PointLight`]: `point`, `spot` and
 //! `projector`, module `projector`; [`DirectionalLight`]: `directional`; module `delta`); [`LightSet`]
@@ -16,6 +17,7 @@ pub mod delta;
 pub mod env;
 pub mod projector;
 pub mod set;
+pub mod shapes;
 
 #[cfg(test)]
 mod test_util;
@@ -37,6 +39,7 @@ pub use delta::{DirectionalLight, PointLight, SpotProfile, SpotTexture};
 pub use env::EnvMap;
 pub use projector::{Frustum, ProjectorProfile};
 pub use set::LightSet;
+pub use shapes::{AnalyticShape, CylinderShape, DiskShape, SphereShape};
 
 use crate::math::{Frame, Vec2, Vec3};
 use std::f32::consts::PI;

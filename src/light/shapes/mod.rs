@@ -1,0 +1,152 @@
+//! The analytic surfaces an `area` emitter may sit on, as Mitsuba 3.9.1 samples them
+//! (src/shapes/sphere.cpp, disk.cpp, cylinder.cpp: `sample_position`, `pdf_position`, `sample_direction`,
+//! `pdf_direction`): the [`SphereShape`] by solid angle (a uniform cone toward it from outside, by area
+//! from inside), the [`DiskShape`] and the [`CylinderShape`] by area, each under an affine `to_world`.
+//!
+//! Each shape is given by plain parameters (its `to_world` as an `Affine3A` of Mitsuba's object-space
+//! shape, and `flip_normals`), so the light does not depend on how the intersector stores it. The normal
+//! a surface point carries is its **emitting side** (Mitsuba's area emitter is one-sided): the object-space
+//! outward normal placed by the inverse transpose of `to_world` (the rule `scene::build` applies to mesh
+//! normals), negated by `flip_normals`. Texture coordinates are Mitsuba's at every point (`uv`).
+//!
+//! Densities: `pdf_a` per unit area of the world-space surface; `pdf_w` per steradian at a reference point,
+//! 0 when the point's emitting side faces away from the reference point. Every sampler and its `pdf_*`
+//! query share one function, so the two agree (MIS needs this).
+
+mod cylinder;
+mod disk;
+mod sphere;
+#[cfg(test)]
+mod tests;
+
+pub use cylinder::CylinderShape;
+pub use disk::DiskShape;
+pub use sphere::SphereShape;
+
+use crate::math::{gamma, Mat3, Vec2, Vec3};
+use glam::Affine3A;
+
+/// A point sampled on an analytic surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit normal of the emitting side.
+    pub n: Vec3,
+    /// Mitsuba's texture coordinates of the point.
+    pub uv: Vec2,
+    /// Density of this point per unit area (the sampler's: 1/A, or the cylinder's under a non-uniform scale).
+    pub pdf_a: f32,
+    /// Conservative absolute error of `p` per axis, for `math::offset_ray_origin`.
+    pub p_error: Vec3,
+}
+
+/// One analytic emitting surface.
+#[derive(Clone, Debug)]
+pub enum AnalyticShape {
+    Sphere(SphereShape),
+    Disk(DiskShape),
+    Cylinder(CylinderShape),
+}
+
+impl AnalyticShape {
+    /// World-space area.
+    #[must_use]
+    pub fn area(&self) -> f32 {
+        match self {
+            AnalyticShape::Sphere(s) => s.area(),
+            AnalyticShape::Disk(d) => d.area(),
+            AnalyticShape::Cylinder(c) => c.area(),
+        }
+    }
+
+    /// A point by area (photon emission): uniform on the sphere and the disk, uniform in Mitsuba's
+    /// parameters on the cylinder.
+    #[must_use]
+    pub fn sample_area(&self, u: Vec2) -> SurfacePoint {
+        match self {
+            AnalyticShape::Sphere(s) => s.sample_area(u),
+            AnalyticShape::Disk(d) => d.sample_area(u),
+            AnalyticShape::Cylinder(c) => c.sample_area(u),
+        }
+    }
+
+    /// The density per unit area with which [`AnalyticShape::sample_area`] gives the surface point `p`.
+    #[must_use]
+    pub fn pdf_a(&self, p: Vec3) -> f32 {
+        match self {
+            AnalyticShape::Sphere(s) => s.pdf_a(),
+            AnalyticShape::Disk(d) => d.pdf_a(),
+            AnalyticShape::Cylinder(c) => c.pdf_a(p),
+        }
+    }
+
+    /// NEE: a point seen from `p_ref` and its solid-angle density; `None` if its emitting side faces away
+    /// from `p_ref` or the density is not a positive finite number.
+    #[must_use]
+    pub fn sample_toward(&self, p_ref: Vec3, u: Vec2) -> Option<(SurfacePoint, f32)> {
+        match self {
+            AnalyticShape::Sphere(s) => s.sample_toward(p_ref, u),
+            AnalyticShape::Disk(d) => by_area(p_ref, d.sample_area(u)),
+            AnalyticShape::Cylinder(c) => by_area(p_ref, c.sample_area(u)),
+        }
+    }
+
+    /// The solid-angle density with which [`AnalyticShape::sample_toward`] from `p_ref` gives the surface
+    /// point `p` of emitting normal `n` (what a BSDF-sampled ray that found `p` needs for its MIS weight).
+    #[must_use]
+    pub fn pdf_toward(&self, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
+        match self {
+            AnalyticShape::Sphere(s) => s.pdf_toward(p_ref, p, n),
+            AnalyticShape::Disk(d) => super::area::pdf_w_from_area(d.pdf_a(), p_ref, p, n),
+            AnalyticShape::Cylinder(c) => super::area::pdf_w_from_area(c.pdf_a(p), p_ref, p, n),
+        }
+    }
+
+    /// The unit emitting normal at the surface point `p` (the normal its samples carry).
+    #[must_use]
+    pub fn normal(&self, p: Vec3) -> Vec3 {
+        match self {
+            AnalyticShape::Sphere(s) => s.normal(p),
+            AnalyticShape::Disk(d) => d.normal(),
+            AnalyticShape::Cylinder(c) => c.normal(p),
+        }
+    }
+
+    /// Mitsuba's texture coordinates of the surface point `p`.
+    #[must_use]
+    pub fn uv(&self, p: Vec3) -> Vec2 {
+        match self {
+            AnalyticShape::Sphere(s) => s.uv(p),
+            AnalyticShape::Disk(d) => d.uv(p),
+            AnalyticShape::Cylinder(c) => c.uv(p),
+        }
+    }
+}
+
+/// A point sampled by area, seen from `p_ref`: its solid-angle density `pdf_a·d²/cos θ_l`.
+fn by_area(p_ref: Vec3, s: SurfacePoint) -> Option<(SurfacePoint, f32)> {
+    let pdf_w = super::area::pdf_w_from_area(s.pdf_a, p_ref, s.p, s.n);
+    (pdf_w > 0.0 && pdf_w.is_finite()).then_some((s, pdf_w))
+}
+
+/// The linear part of `t` as a `Mat3`.
+fn linear(t: &Affine3A) -> Mat3 {
+    Mat3::from(t.matrix3)
+}
+
+/// Conservative absolute error of `t·local` per axis when `local` itself carries a few ulps of relative
+/// error (sines and cosines): `γ(6)·(|M|·|local| + |translation|)` (pbrt-v4 §6.8.5 for the transform, three
+/// more roundings for `local`).
+fn affine_point_error(t: &Affine3A, local: Vec3) -> Vec3 {
+    let m = linear(t);
+    let abs = Mat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+    gamma(6) * (abs * local.abs() + Vec3::from(t.translation).abs())
+}
+
+/// `(φ/2π)` in [0, 1) of the azimuth `atan2(y, x)` (Mitsuba's `phi < 0 → phi + 2π`, then `/2π`).
+fn azimuth_fraction(y: f32, x: f32) -> f32 {
+    let phi = y.atan2(x);
+    let phi = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi };
+    // 2π − ulp rounds to 1 after the division: keep the fraction below 1.
+    (phi * (1.0 / std::f32::consts::TAU)).min(1.0 - f32::EPSILON * 0.5)
+}
