@@ -1,6 +1,6 @@
 //! All the lights of a scene, with the two choices made among them: a light ∝ power (luminance, method.md
 //! §2) for next-event estimation and for photon emission, and the primitive → light table that turns a
-//! hit on an emissive triangle into its light.
+//! hit on an emissive primitive (a triangle, or an analytic shape numbered after the triangles) into its light.
 
 use super::{Light, LightSample};
 use crate::math::{Aabb, Vec2, Vec3};
@@ -30,11 +30,11 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// Builds the set for a scene of `triangle_count` triangles bounded by `scene_bounds` (whose bounding
-    /// sphere gives R for the power of infinite lights). A light whose power is negative or not finite
+    /// Builds the set for a scene of `prim_count` primitives (its triangles, then its analytic shapes)
+    /// bounded by `scene_bounds` (whose bounding sphere gives R for the power of infinite lights). A light whose power is negative or not finite
     /// (bad input upstream) gets power 0: it is never chosen for NEE, but still seen by rays that hit it.
     #[must_use]
-    pub fn new(lights: Vec<Light>, triangle_count: usize, scene_bounds: Aabb) -> LightSet {
+    pub fn new(lights: Vec<Light>, prim_count: usize, scene_bounds: Aabb) -> LightSet {
         let (scene_center, scene_radius) = scene_bounds.bounding_sphere();
         let powers: Vec<f32> = lights
             .iter()
@@ -48,14 +48,14 @@ impl LightSet {
             })
             .collect();
         let selection = Distribution1D::new(&powers);
-        let mut prim_to_light = vec![NO_LIGHT; triangle_count];
+        let mut prim_to_light = vec![NO_LIGHT; prim_count];
         for (index, light) in lights.iter().enumerate() {
             if let Light::Area(area) = light {
                 for prim in area.prims() {
                     let prim = prim as usize;
                     debug_assert!(
-                        prim < triangle_count,
-                        "emissive primitive {prim} outside the {triangle_count} triangles"
+                        prim < prim_count,
+                        "emissive primitive {prim} outside the {prim_count} primitives"
                     );
                     if prim >= prim_to_light.len() {
                         prim_to_light.resize(prim + 1, NO_LIGHT);
@@ -153,7 +153,7 @@ impl LightSet {
         Some((index, pmf))
     }
 
-    /// Light index of an emissive triangle, if any.
+    /// Light index of an emissive primitive (triangle or analytic shape), if any.
     #[must_use]
     pub fn light_of_prim(&self, prim: u32) -> Option<usize> {
         let prim = prim as usize;
@@ -166,8 +166,8 @@ impl LightSet {
         }
     }
 
-    /// Radiance leaving emissive triangle `prim` at a point with unit geometric normal `ng` toward
-    /// `w_world` (0 on the back side and for non-emissive triangles); `uv` gives the point's texture
+    /// Radiance leaving emissive primitive `prim` (triangle or analytic shape) at a point with unit geometric normal `ng` toward
+    /// `w_world` (0 on the back side and for non-emissive primitives); `uv` gives the point's texture
     /// coordinates (`Scene::tex_uv`), asked only where the light's radiance is a texture.
     #[inline]
     #[must_use]
@@ -179,7 +179,9 @@ impl LightSet {
     }
 
     /// Solid-angle pdf, including selection, with which [`LightSet::sample_li`] from `p_ref` produces the point
-    /// `p_light` (unit geometric normal `n_light`) on emissive triangle `prim`.
+    /// `p_light` (unit geometric normal `n_light`) on emissive primitive `prim` (on a sphere, the density of
+    /// its solid-angle sampling: `p_light` must be the first point of the sphere seen from `p_ref`, as a
+    /// ray's hit is).
     #[must_use]
     pub fn pdf_li_area(&self, prim: u32, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
         match self.light_of_prim(prim) {

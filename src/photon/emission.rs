@@ -5,9 +5,11 @@
 //! instead of spreading photons over the whole hemisphere (issue 9 item 6, issue 13 §2):
 //! - a light `j` is chosen ∝ its power `Φⱼ` (area lights `π·A·Le`, a textured one's mean `Le`: its photons
 //!   carry the texture at their start; env maps `π·R²·∫Le dω`; the `constant` emitter emits no photons);
-//! - **area light**: a point `y` uniform on the light (`1/A`), then a direction uniform in the cone
-//!   that `S_δ` subtends from `y` when that cone is narrower than a hemisphere (`cos θ_max > ½`), else
-//!   cosine-weighted about the normal (a light inside or near `S_δ`, e.g. a closed mirror box);
+//! - **area light**: a point `y` uniform on the light (`1/A`; on an analytic shape its own `sample_area`,
+//!   `light::shapes`: uniform too, except on an elliptic cylinder whose density `p_a(y)` varies), then a
+//!   direction uniform in the cone that `S_δ` subtends from `y` when that cone is narrower than a
+//!   hemisphere (`cos θ_max > ½`), else cosine-weighted about the normal (a light inside or near `S_δ`,
+//!   e.g. a closed mirror box);
 //! - **environment map**: a direction ω ∝ the map's importance distribution, then a point uniform on
 //!   a disk of `S_δ`'s radius perpendicular to ω, centred on the line through `S_δ`'s centre, outside
 //!   the scene's bounding sphere;
@@ -28,7 +30,7 @@
 //! which a photon can first hit a delta triangle lies in the cone (resp. every line that can hit one
 //! crosses the disk), so `p_emit > 0` wherever T1 can make a path.
 
-use crate::light::{luminance, EmissionSample, EnvMap, Light};
+use crate::light::{luminance, AnalyticShape, EmissionSample, EnvMap, Light};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
 use crate::sampling::warp::{square_to_cosine_hemisphere, square_to_uniform_cone, uniform_cone_pdf_w};
@@ -46,8 +48,11 @@ const CONE_MIN_COS: f32 = 0.5;
 pub struct PhotonEmission {
     /// Light selection ∝ photon power (0 for lights that emit no photons).
     selection: Distribution1D,
-    /// `1/A` of each area light (0 for the others).
+    /// `1/A` of each area light (0 for the others): the density of its photons' starting points, except on
+    /// an analytic shape whose density varies over it (an elliptic cylinder), which `area_shape` holds.
     inv_area: Vec<f32>,
+    /// The analytic shape of each area light on one (`light::shapes`), asked for its density at a point.
+    area_shape: Vec<Option<AnalyticShape>>,
     /// `S_δ`: centre and radius of the sphere around the delta triangles.
     target_center: Vec3,
     target_radius: f32,
@@ -130,11 +135,15 @@ impl PhotonEmission {
                 _ => 0.0,
             })
             .collect();
+        let area_shape = scene.lights.lights().iter().map(|l| match l {
+            Light::Area(a) => a.analytic_shape().cloned(),
+            _ => None,
+        }).collect();
         let delta = scene.delta_bounds();
         let (target_center, target_radius) = if delta.is_empty() { (center, radius) } else { delta.bounding_sphere() };
         let target_radius = (target_radius * (1.0 + TARGET_MARGIN)).max(f32::MIN_POSITIVE);
         let env_distance = radius + (target_center - center).length() + target_radius;
-        Some(Self { selection, inv_area, target_center, target_radius, env_distance })
+        Some(Self { selection, inv_area, area_shape, target_center, target_radius, env_distance })
     }
 
     /// Total photon power Φ (luminance) of the emitting lights.
@@ -188,7 +197,10 @@ impl PhotonEmission {
     /// direction `w` (unit): what [`PhotonEmission::sample`] would have given it (T2, method.md §4).
     #[must_use]
     pub fn pdf_emit_area(&self, index: usize, p: Vec3, n: Vec3, w: Vec3) -> f32 {
-        let inv_area = self.inv_area.get(index).copied().unwrap_or(0.0);
+        let inv_area = match self.area_shape.get(index) {
+            Some(Some(shape)) => shape.pdf_a(p),
+            _ => self.inv_area.get(index).copied().unwrap_or(0.0),
+        };
         let cos = n.dot(w);
         if inv_area <= 0.0 || cos.is_nan() || cos <= 0.0 {
             return 0.0;

@@ -2,8 +2,10 @@
 //! direction being the sum of `pdf_toward` over the shape's points along it), sample/pdf agreement,
 //! the areas (an elliptic tube's against an independent quadrature and against Monte Carlo of `1/pdf_a`),
 //! Mitsuba 3.9.1's normals and uvs at points it intersected, the irradiance of a sphere light against
-//! the closed form `π·L·(r/d)²·cos θ` (and the variance of solid-angle against area sampling), and for
-//! each shape the power through a patch estimated by NEE and by photons.
+//! the closed form `π·L·(r/d)²·cos θ` (and the variance of solid-angle against area sampling), for
+//! each shape the power through a patch estimated by NEE and by photons, and the light set's queries on an
+//! analytic primitive (`light_of_prim`, `le_area`, `pdf_li_area`: direct light by NEE alone and by NEE +
+//! BSDF sampling under the power heuristic agree).
 
 use super::*;
 use crate::light::test_util::{assert_within_5_sigma, Mean};
@@ -356,5 +358,83 @@ fn textured_shape_lights_read_the_texture_at_the_shapes_uv() {
             let on_surface = e.origin; // offset by the error bound only
             assert!((checks.eval_rgb(shape.uv(on_surface)) - e.le).abs().max_element() < 1e-6 || (shape.uv(on_surface) * Vec2::new(4.0, 3.0)).fract().min_element() < 1e-3);
         }
+    }
+}
+
+/// Direct light at `p_ref` (a diffuse receiver of normal `n_r`) by NEE alone, and by NEE and cosine-weighted
+/// BSDF sampling under the power heuristic, the BSDF-sampled ray's density at the light asked of
+/// `LightSet::pdf_li_area` for the primitive it hit (as the path tracer does): the two agree only if
+/// that query is the sampler's density and `le_area` its radiance.
+fn mis_agrees_with_nee(name: &str, set: &crate::light::LightSet, index: usize, shape: &AnalyticShape, prim: u32, p_ref: Vec3, n_r: Vec3) {
+    use crate::sampling::mis::power_heuristic;
+    use crate::sampling::warp::square_to_cosine_hemisphere;
+    let frame = Frame::from_normal(n_r);
+    let (mut nee, mut mis) = (Mean::default(), Mean::default());
+    let mut sampler = Sampler::for_key(13, 0, 0);
+    for _ in 0..300_000 {
+        let (u_select, u_light, u_bsdf) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+        // NEE: its plain estimate, and its share under the power heuristic.
+        let (mut plain, mut total) = (0.0, 0.0);
+        if let Some((i, ls)) = set.sample_li(p_ref, u_select, u_light) {
+            assert_eq!(i, index);
+            let f = n_r.dot(ls.wi_world).max(0.0) / PI;
+            plain = f64::from(luminance(ls.li) * f / ls.pdf_w);
+            total = plain * f64::from(power_heuristic(ls.pdf_w, f));
+        }
+        nee.add(plain);
+        // BSDF sampling: the first point of the shape along the direction, as a ray finds it.
+        let local = square_to_cosine_hemisphere(u_bsdf);
+        let w = frame.to_world(local);
+        let nearest = hits(shape, p_ref, w).into_iter().min_by(|a, b| (*a - p_ref).length().total_cmp(&(*b - p_ref).length()));
+        if let Some(p) = nearest {
+            assert_eq!(set.light_of_prim(prim), Some(index));
+            let n = shape.normal(p);
+            let le = set.le_area(prim, n, -w, || shape.uv(p));
+            if le != Vec3::ZERO {
+                let pdf_bsdf = local.z / PI;
+                total += f64::from(luminance(le) * power_heuristic(pdf_bsdf, set.pdf_li_area(prim, p_ref, p, n)));
+            }
+        }
+        mis.add(total);
+    }
+    println!("{name}: NEE {} ± {}, MIS {} ± {}", nee.mean(), nee.stderr(), mis.mean(), mis.stderr());
+    let sigma = (nee.stderr().powi(2) + mis.stderr().powi(2)).sqrt();
+    assert!((nee.mean() - mis.mean()).abs() <= 5.0 * sigma + 1e-6 * nee.mean(), "{name}: NEE {} vs MIS {} (σ {sigma})", nee.mean(), mis.mean());
+}
+
+#[test]
+fn light_set_queries_on_analytic_prims_are_the_samplers() {
+    use crate::light::{Light, LightSet};
+    use crate::math::Aabb;
+    let radiance = Vec3::new(1.0, 0.7, 0.4);
+    let shapes = [AnalyticShape::Sphere(sphere(false)), AnalyticShape::Disk(disk(false)), AnalyticShape::Cylinder(tube(false))];
+    let bounds = Aabb::from_points(&[Vec3::splat(-2.0), Vec3::splat(2.0)]);
+    for (k, shape) in shapes.iter().enumerate() {
+        // A triangle soup of 5 triangles (one of them emitting), then this shape as primitive 5.
+        let quad = AreaLight::new(Vec3::ONE, vec![(2, [Vec3::new(-2.0, 2.0, -2.0), Vec3::new(-1.5, 2.0, -2.0), Vec3::new(-2.0, 2.0, -1.5)])]);
+        let set = LightSet::new(vec![Light::Area(quad), Light::Area(AreaLight::analytic(radiance, 5, shape.clone()))], 6, bounds);
+        assert_eq!((set.light_of_prim(5), set.light_of_prim(4), set.light_of_prim(2)), (Some(1), None, Some(0)));
+        let lone = LightSet::new(vec![Light::Area(AreaLight::analytic(radiance, 5, shape.clone()))], 6, bounds);
+        let (p_ref, n_r) = match k {
+            0 => (Vec3::new(0.1, 0.7, 0.1), Vec3::new(0.2, 1.0, -0.3).normalize()),
+            1 => {
+                let d = disk(false);
+                (d.sample_area(Vec2::splat(0.5)).p + 0.6 * d.normal() + Vec3::new(0.2, 0.0, 0.1), (-d.normal() + Vec3::new(0.3, 0.0, 0.0)).normalize())
+            }
+            _ => (Vec3::new(1.2, 0.1, 0.4), Vec3::new(-1.0, 0.4, -0.3).normalize()),
+        };
+        // Every NEE sample of the shape: the set's queries at its point give its density (× selection)
+        // and its radiance.
+        let mut sampler = Sampler::for_key(14, k as u64, 0);
+        for _ in 0..5000 {
+            if let Some((i, ls)) = set.sample_li(p_ref, sampler.next_1d(), sampler.next_2d()) {
+                if i == 1 {
+                    assert!((set.pdf_li_area(5, p_ref, ls.p_light, ls.n_light) - ls.pdf_w).abs() <= 1e-4 * ls.pdf_w);
+                    assert_eq!(set.le_area(5, ls.n_light, -ls.wi_world, || unreachable!()), ls.li);
+                    assert_eq!(set.le_area(5, ls.n_light, ls.wi_world, || unreachable!()), Vec3::ZERO);
+                }
+            }
+        }
+        mis_agrees_with_nee(["sphere", "disk", "elliptic tube"][k], &lone, 0, shape, 5, p_ref, n_r);
     }
 }
