@@ -147,10 +147,14 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let groups: BTreeMap<String, usize> = file.shapegroup.keys().enumerate().map(|(i, k)| (k.clone(), i)).collect();
     let mut shape_plans = Vec::with_capacity(file.shape.len());
     let mut instance_plans = Vec::new();
+    let mut instance_keys = Vec::new();
     for (i, shape) in file.shape.iter().enumerate() {
         let key = join_index("shape", i);
         match shape.plugin.kind.as_str() {
-            instances::INSTANCE => instance_plans.push(instances::plan_instance(ctx, &key, shape, &groups)?),
+            instances::INSTANCE => {
+                instance_plans.push(instances::plan_instance(ctx, &key, shape, &groups)?);
+                instance_keys.push(key);
+            }
             instances::SHAPEGROUP => return Err(instances::refuse_group_as_shape(ctx, &key)),
             _ => shape_plans.push(plan_shape(ctx, &key, shape, &mut materials)?),
         }
@@ -283,6 +287,9 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     }
     let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
     let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances }.instance_bounds();
+    for (b, key) in instance_boxes.iter().zip(&instance_keys) {
+        super::precision::check_box(*b).map_err(|m| ctx.key_error(key, m.replacen("the shape", "the instance", 1)))?;
+    }
     let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {
