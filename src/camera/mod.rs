@@ -28,9 +28,11 @@
 //! [near_clip, far_clip] — Mitsuba shifts the origin to the near plane and shortens `maxt` instead, the same
 //! points. Depth, not distance along the ray: the far plane is flat, so a corner ray reaches farther.
 //!
-//! The three projections ([`Projection`]), one file each with its keys, its checks and its rays:
-//! `perspective` (a pinhole), `thinlens` (an aperture and a focal plane), `orthographic` (parallel rays from
-//! a scalable camera plane); [`SENSORS`] lists them for the scene readers' key check.
+//! The three projections ([`Projection`]), one file each with its keys (read through [`Props`] by its
+//! `PLUGIN`'s constructor, as every plugin's), its checks and its rays: `perspective` (a pinhole), `thinlens`
+//! (an aperture and a focal plane), `orthographic` (parallel rays from a scalable camera plane). [`PLUGINS`]
+//! lists them (the scene builder and both readers' key checks); the keys every sensor takes beside its own,
+//! `to_world` and `film` ([`COMMON_KEYS`]), are read by the scene builder.
 //!
 //! No code connects paths to the camera (photons do not hit it, no light tracing), so the sensors need
 //! no importance or position pdf.
@@ -41,11 +43,54 @@ mod thinlens;
 
 use crate::film::PixelFilter;
 use crate::math::{Mat3, Mat4, Ray, Rect, Vec2, Vec3};
+use crate::props::{NumberOrName, PropError, Props};
 use crate::sampler::Sampler;
 
-/// Every sensor type: Mitsuba's name and the keys it reads (the XML reader's key check, `scene::xml`).
-pub(crate) const SENSORS: &[(&str, &[&str])] =
-    &[(perspective::NAME, perspective::KEYS), (thinlens::NAME, thinlens::KEYS), (orthographic::NAME, orthographic::KEYS)];
+/// A sensor type as the scene files name it: its keys and the constructor of its [`Projection`].
+pub(crate) type Plugin = crate::props::Plugin<Projection>;
+
+/// Every sensor type, Mitsuba's names.
+pub(crate) const PLUGINS: &[&Plugin] = &[&perspective::PLUGIN, &thinlens::PLUGIN, &orthographic::PLUGIN];
+
+/// The sensor type of a `[sensor]` table without `type` (Mitsuba's XML always names one; caustica's TOML
+/// may leave it out).
+pub(crate) const DEFAULT_TYPE: &str = perspective::PLUGIN.name;
+
+/// The keys every sensor takes beside its own, read by the scene builder (`scene::build`).
+pub(crate) const COMMON_KEYS: &[&str] = &["to_world", "film"];
+
+/// The clip planes `near_clip`, `far_clip` every sensor reads, Mitsuba's defaults for those left out (checked
+/// with the camera: [`Camera::with_projection`]).
+fn clip_planes(p: &Props<'_, ()>) -> Result<(f32, f32), PropError> {
+    Ok((p.float_or("near_clip", DEFAULT_NEAR_CLIP)?, p.float_or("far_clip", DEFAULT_FAR_CLIP)?))
+}
+
+/// The field of view in degrees and its axis of the sensors with a film at depth 1 (perspective, thin lens):
+/// `fov` along `fov_axis` (default x, as Mitsuba), or else the 35 mm equivalent `focal_length` (Mitsuba's
+/// default "50mm") across the film's diagonal ([`focal_length_fov`]); not both.
+fn field_of_view(p: &Props<'_, ()>) -> Result<(f32, FovAxis), PropError> {
+    let axis = match p.string("fov_axis")? {
+        None => FovAxis::default(),
+        Some(name) => FovAxis::from_name(name).ok_or_else(|| PropError::new("fov_axis", format!("{name:?} is not an axis (x, y, diagonal, smaller or larger)")))?,
+    };
+    if p.has("fov") {
+        if p.has("focal_length") {
+            return Err(PropError::new("focal_length", "give either fov or focal_length, not both"));
+        }
+        let fov = p.float_or("fov", 0.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(PropError::new("fov", CameraError::Fov(fov).to_string()));
+        }
+        return Ok((fov, axis));
+    }
+    let mm = match p.number_or_name("focal_length")? {
+        None => "50mm".to_string(),
+        Some(NumberOrName::Number(x)) => x.to_string(),
+        Some(NumberOrName::Name(text)) => text.to_string(),
+    };
+    let fov = focal_length_fov(&mm).ok_or_else(|| PropError::new("focal_length", format!("{mm:?} is not a focal length (a positive number of millimetres, \"50mm\")")))?;
+    Ok((fov, FovAxis::Diagonal))
+}
 
 /// Which film axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -111,9 +156,9 @@ impl Projection {
     #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
-            Projection::Perspective { .. } => perspective::NAME,
-            Projection::ThinLens { .. } => thinlens::NAME,
-            Projection::Orthographic { .. } => orthographic::NAME,
+            Projection::Perspective { .. } => perspective::PLUGIN.name,
+            Projection::ThinLens { .. } => thinlens::PLUGIN.name,
+            Projection::Orthographic { .. } => orthographic::PLUGIN.name,
         }
     }
 

@@ -13,13 +13,16 @@
 //! to_world = [ { scale = [2.5, 2.5, 1] }, { look_at = { origin = [0, 3.5, 5], target = [0, 0, 0], up = [0, 1, 0] } } ]
 //! ```
 
-use super::Camera;
+use super::{clip_planes, Camera, Plugin, Projection};
 use crate::math::{Ray, Vec2, Vec3};
+use crate::props::{PropError, Props};
 
-/// Mitsuba's name of the sensor.
-pub(super) const NAME: &str = "orthographic";
-/// The keys it reads.
-pub(super) const KEYS: &[&str] = &["near_clip", "far_clip", "to_world"];
+pub(super) const PLUGIN: Plugin = Plugin { name: "orthographic", keys: &["near_clip", "far_clip"], nested: &[], build };
+
+fn build(p: Props<'_, ()>) -> Result<Projection, PropError> {
+    let (near_clip, far_clip) = clip_planes(&p)?;
+    Ok(Projection::Orthographic { near_clip, far_clip })
+}
 
 /// The half extent of the camera plane the film covers: x spans [-1, 1], y the same scaled by h/w.
 pub(super) fn half(w: f32, h: f32) -> Vec2 {

@@ -11,13 +11,17 @@
 //! to_world = { look_at = { origin = [0, 0, 3.9], target = [0, 0, 0], up = [0, 1, 0] } }
 //! ```
 
-use super::{depth_clipped, Camera};
+use super::{clip_planes, depth_clipped, field_of_view, Camera, Plugin, Projection};
 use crate::math::{Ray, Vec2};
+use crate::props::{PropError, Props};
 
-/// Mitsuba's name of the sensor.
-pub(super) const NAME: &str = "perspective";
-/// The keys it reads.
-pub(super) const KEYS: &[&str] = &["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world"];
+pub(super) const PLUGIN: Plugin = Plugin { name: "perspective", keys: &["fov", "fov_axis", "focal_length", "near_clip", "far_clip"], nested: &[], build };
+
+fn build(p: Props<'_, ()>) -> Result<Projection, PropError> {
+    let (fov_deg, fov_axis) = field_of_view(&p)?;
+    let (near_clip, far_clip) = clip_planes(&p)?;
+    Ok(Projection::Perspective { fov_deg, fov_axis, near_clip, far_clip })
+}
 
 /// The ray through `film`, a point of the image plane at depth 1 in camera space: from the pinhole, valid
 /// between the clip planes (perspective.cpp `sample_ray`).

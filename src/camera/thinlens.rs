@@ -15,14 +15,30 @@
 //! to_world = { look_at = { origin = [0, 1.5, 4], target = [0, 0.3, 0], up = [0, 1, 0] } }
 //! ```
 
-use super::{depth_clipped, Camera, CameraError};
+use super::{clip_planes, depth_clipped, field_of_view, Camera, CameraError, Plugin, Projection};
 use crate::math::{Ray, Vec2};
+use crate::props::{PropError, Props};
 use crate::sampling::warp::square_to_uniform_disk_concentric;
 
-/// Mitsuba's name of the sensor.
-pub(super) const NAME: &str = "thinlens";
-/// The keys it reads.
-pub(super) const KEYS: &[&str] = &["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "to_world", "aperture_radius", "focus_distance"];
+pub(super) const PLUGIN: Plugin = Plugin {
+    name: "thinlens",
+    keys: &["fov", "fov_axis", "focal_length", "near_clip", "far_clip", "aperture_radius", "focus_distance"],
+    nested: &[],
+    build,
+};
+
+/// thinlens.cpp reads `aperture_radius` without a default; the focal plane defaults to the far clip plane
+/// (`ProjectiveCamera`).
+fn build(p: Props<'_, ()>) -> Result<Projection, PropError> {
+    let (fov_deg, fov_axis) = field_of_view(&p)?;
+    let (near_clip, far_clip) = clip_planes(&p)?;
+    if !p.has("aperture_radius") {
+        return Err(PropError::new("", "a thinlens sensor needs aperture_radius"));
+    }
+    let aperture_radius = p.float_or("aperture_radius", 0.0)?;
+    let focus_distance = p.float_or("focus_distance", far_clip)?;
+    Ok(Projection::ThinLens { fov_deg, fov_axis, aperture_radius, focus_distance, near_clip, far_clip })
+}
 
 /// Its own parameters' checks: a finite aperture radius ≥ 0 and a finite focus distance > 0.
 pub(super) fn check(aperture_radius: f32, focus_distance: f32) -> Result<(), CameraError> {

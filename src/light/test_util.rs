@@ -1,7 +1,58 @@
-//! Small statistics shared by the light tests: a running mean with its standard error, and a chi² test whose
-//! p-value uses the Wilson–Hilferty normal approximation of the chi² distribution (accurate to ~1e-3 in
-//! the tail for ≥ 30 degrees of freedom, which is all these tests use). The lead may port these to the
-//! project's shared chi² harness.
+//! What the light tests share: a running mean with its standard error, a chi² test whose p-value uses the
+//! Wilson–Hilferty normal approximation of the chi² distribution (accurate to ~1e-3 in the tail for ≥ 30
+//! degrees of freedom, which is all these tests use), the checkerboard the textured delta lights project,
+//! and the check that a delta light's photons carry through a patch what NEE sees there.
+
+use super::{luminance, PointLight};
+use crate::math::{Frame, Mat3, Vec2, Vec3};
+use crate::sampler::Sampler;
+use crate::texture::{Checkerboard, Texture};
+
+/// A checkerboard of 3 × 2 repeats, one colour brighter than 1 in blue: what the textured delta lights'
+/// tests project (projector, textured spot).
+pub(super) fn checker() -> Texture {
+    Texture::Checkerboard(Checkerboard { color0: Vec3::new(1.0, 0.5, 0.2), color1: Vec3::new(0.1, 0.3, 2.0), to_uv: Mat3::from_scale(Vec2::new(3.0, 2.0)) })
+}
+
+/// The power `light`'s photons carry through a patch equals the irradiance NEE sees integrated over it
+/// (the two sides of a caustic estimate must agree): photon starts, aimed at a sphere around the patch and
+/// unaimed, against a 400² midpoint quadrature of `li·|cos|` from `sample_li`. The patch is the
+/// 1.2 × 0.8 rectangle centred on `c` in the plane of normal `n`; the quadrature's cells straddle texture
+/// and beam edges, hence 0.5 % slack. `seed` keys the sampler.
+pub(super) fn assert_photons_through_patch_match_nee(light: &PointLight, c: Vec3, n: Vec3, seed: u64) {
+    let f = Frame::from_normal(n);
+    let (hx, hy) = (0.6f32, 0.4f32);
+    let mut nee = 0.0f64;
+    let m = 400;
+    for i in 0..m {
+        for j in 0..m {
+            let p = c + f.s * hx * (2.0 * (i as f32 + 0.5) / m as f32 - 1.0) + f.t * hy * (2.0 * (j as f32 + 0.5) / m as f32 - 1.0);
+            if let Some(ls) = light.sample_li(p) {
+                nee += f64::from(luminance(ls.li) * n.dot(ls.wi_world).abs());
+            }
+        }
+    }
+    nee *= f64::from(4.0 * hx * hy) / f64::from(m * m);
+    assert!(nee > 0.0);
+    let through = |o: Vec3, d: Vec3| {
+        let t = (c - o).dot(n) / d.dot(n);
+        let q = o + t * d - c;
+        t > 0.0 && q.dot(f.s).abs() <= hx && q.dot(f.t).abs() <= hy
+    };
+    let radius = (hx * hx + hy * hy).sqrt();
+    for aimed in [true, false] {
+        let mut mean = Mean::default();
+        let mut s = Sampler::for_key(seed, u64::from(aimed), 0);
+        for _ in 0..400_000 {
+            let es = if aimed { light.sample_le_toward(s.next_2d(), c, radius) } else { light.sample_le(s.next_2d()) };
+            let x = es.filter(|es| through(es.origin, es.dir)).map_or(0.0, |es| {
+                f64::from(luminance(es.le)) * f64::from(es.n.dot(es.dir).abs()) / (f64::from(es.pdf_a) * f64::from(es.pdf_w_dir))
+            });
+            mean.add(x);
+        }
+        assert_within_5_sigma(if aimed { "aimed photons" } else { "unaimed photons" }, &mean, nee, 5e-3 * nee);
+    }
+}
 
 /// Running mean of i.i.d. samples and the standard error of that mean.
 #[derive(Default)]

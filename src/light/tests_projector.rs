@@ -5,21 +5,16 @@
 //! (`emitter::projector`).
 
 use super::delta::PointDirection;
-use super::test_util::{assert_within_5_sigma, Mean};
+use super::test_util::{assert_photons_through_patch_match_nee, checker};
 use super::*;
 use crate::math::{Frame, Mat3, Vec2, Vec3};
-use crate::sampler::Sampler;
 use crate::sampling::chi2::{integrate_sphere, Chi2Test, PdfIntegral};
-use crate::texture::{Checkerboard, Texture};
+use crate::texture::Texture;
 
 /// A frame looking along `dir` (any length), mirrored when `mirror` (a look_at frame is left-handed).
 fn frame(dir: Vec3, mirror: bool) -> Mat3 {
     let f = Frame::from_normal(dir.normalize());
     Mat3::from_cols(if mirror { -f.s } else { f.s }, f.t, f.n)
-}
-
-fn checker() -> Texture {
-    Texture::Checkerboard(Checkerboard { color0: Vec3::new(1.0, 0.5, 0.2), color1: Vec3::new(0.1, 0.3, 2.0), to_uv: Mat3::from_scale(Vec2::new(3.0, 2.0)) })
 }
 
 fn projector(pos: Vec3, dir: Vec3, tan_half: Vec2, texture: Texture) -> PointLight {
@@ -56,49 +51,14 @@ fn power_matches_quadrature() {
     }
 }
 
-/// The power photons carry through a patch equals the irradiance NEE sees integrated over it: photon
-/// starts (aimed at a sphere around the patch, and unaimed) against a midpoint quadrature of
-/// `li·|cos|` from `sample_li`. The patch straddles the checkerboard's cells and the frustum's edge.
+/// The power photons carry through a patch equals the irradiance NEE sees integrated over it. The patch
+/// straddles the checkerboard's cells and the frustum's edge.
 #[test]
 fn photons_through_a_patch_carry_what_nee_sees() {
-    let pos = Vec3::new(0.0, 3.0, 0.5);
-    let light = projector(pos, Vec3::new(0.1, -1.0, -0.2), Vec2::new(0.5, 0.35), checker());
-    // A 1.2 × 0.8 patch on the tilted plane through `c` with normal `n`.
-    let (c, n) = (Vec3::new(0.9, 0.0, -0.3), Vec3::new(0.2, 1.0, 0.1).normalize());
-    let f = Frame::from_normal(n);
-    let (hx, hy) = (0.6f32, 0.4f32);
-    let mut nee = 0.0f64;
-    let m = 400;
-    for i in 0..m {
-        for j in 0..m {
-            let p = c + f.s * hx * (2.0 * (i as f32 + 0.5) / m as f32 - 1.0) + f.t * hy * (2.0 * (j as f32 + 0.5) / m as f32 - 1.0);
-            if let Some(ls) = light.sample_li(p) {
-                nee += f64::from(luminance(ls.li) * n.dot(ls.wi_world).abs());
-            }
-        }
-    }
-    nee *= f64::from(4.0 * hx * hy) / f64::from(m * m);
-    assert!(nee > 0.0);
-    let through = |o: Vec3, d: Vec3| {
-        let t = (c - o).dot(n) / d.dot(n);
-        let q = o + t * d - c;
-        t > 0.0 && q.dot(f.s).abs() <= hx && q.dot(f.t).abs() <= hy
-    };
-    let (radius, center) = ((hx * hx + hy * hy).sqrt(), c);
-    for aimed in [true, false] {
-        let mut mean = Mean::default();
-        let mut s = Sampler::for_key(31, u64::from(aimed), 0);
-        for _ in 0..400_000 {
-            let es = if aimed { light.sample_le_toward(s.next_2d(), center, radius) } else { light.sample_le(s.next_2d()) };
-            let x = es.filter(|es| through(es.origin, es.dir)).map_or(0.0, |es| {
-                f64::from(luminance(es.le)) * f64::from(es.n.dot(es.dir).abs()) / (f64::from(es.pdf_a) * f64::from(es.pdf_w_dir))
-            });
-            mean.add(x);
-        }
-        // The quadrature's cells straddle the checker and frustum edges: 0.5 % slack.
-        assert_within_5_sigma(if aimed { "aimed photons" } else { "film photons" }, &mean, nee, 5e-3 * nee);
-    }
+    let light = projector(Vec3::new(0.0, 3.0, 0.5), Vec3::new(0.1, -1.0, -0.2), Vec2::new(0.5, 0.35), checker());
+    assert_photons_through_patch_match_nee(&light, Vec3::new(0.9, 0.0, -0.3), Vec3::new(0.2, 1.0, 0.1).normalize(), 31);
 }
+
 
 /// Photons leave through the film when the frustum is the smaller solid angle, in the cone toward the
 /// target sphere when that is (outside the frustum their intensity is 0).

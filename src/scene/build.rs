@@ -17,7 +17,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::desc::{PluginDesc, SceneFile, SensorDesc, SensorType, ShapeDesc, ToWorld, TransformOp};
+use super::desc::{FilmDesc, PluginDesc, SceneFile, SensorDesc, ShapeDesc, ToWorld, TransformOp};
 use super::error::{ErrorContext, SceneError};
 use super::attributes::SceneAttributes;
 use super::instances;
@@ -29,7 +29,7 @@ use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix, to_world_value};
 use super::xml::Places;
 use super::Scene;
-use crate::camera::{self, Camera, CameraError, FovAxis, Projection};
+use crate::camera::{self, Camera, CameraError, Projection};
 use crate::film::{filter, PixelFilter};
 use crate::accel::Instance;
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
@@ -147,10 +147,14 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let groups: BTreeMap<String, usize> = file.shapegroup.keys().enumerate().map(|(i, k)| (k.clone(), i)).collect();
     let mut shape_plans = Vec::with_capacity(file.shape.len());
     let mut instance_plans = Vec::new();
+    let mut instance_keys = Vec::new();
     for (i, shape) in file.shape.iter().enumerate() {
         let key = join_index("shape", i);
         match shape.plugin.kind.as_str() {
-            instances::INSTANCE => instance_plans.push(instances::plan_instance(ctx, &key, shape, &groups)?),
+            instances::INSTANCE => {
+                instance_plans.push(instances::plan_instance(ctx, &key, shape, &groups)?);
+                instance_keys.push(key);
+            }
             instances::SHAPEGROUP => return Err(instances::refuse_group_as_shape(ctx, &key)),
             _ => shape_plans.push(plan_shape(ctx, &key, shape, &mut materials)?),
         }
@@ -283,6 +287,9 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     }
     let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
     let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances }.instance_bounds();
+    for (b, key) in instance_boxes.iter().zip(&instance_keys) {
+        super::precision::check_box(*b).map_err(|m| ctx.key_error(key, m.replacen("the shape", "the instance", 1)))?;
+    }
     let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {
@@ -373,18 +380,21 @@ fn integrator_settings(ctx: &ErrorContext, file: &SceneFile) -> Result<Integrato
 /// default film. Its far clip plane is Mitsuba's default unless the box reaches beyond it: then just past the
 /// box's far corner (depth ≤ distance + diagonal), so that the whole scene is seen.
 fn default_sensor(bounds: Aabb) -> SensorDesc {
-    let mut s = SensorDesc { fov: Some(45.0), ..SensorDesc::default() };
+    let mut props = toml::Table::from_iter([("fov".to_string(), toml::Value::Float(45.0))]);
+    let mut to_world = None;
     if !bounds.is_empty() {
         let (centre, extents) = (bounds.center(), bounds.extent());
         let distance = extents.x.max(extents.y) / (2.0 * 22.5f32.to_radians().tan());
         let reach = 1.01 * (distance + extents.length());
-        s.far_clip = (reach > camera::DEFAULT_FAR_CLIP).then_some(reach);
-        s.to_world = Some(ToWorld::One(TransformOp {
+        if reach > camera::DEFAULT_FAR_CLIP {
+            props.insert("far_clip".to_string(), toml::Value::Float(f64::from(reach)));
+        }
+        to_world = Some(ToWorld::One(TransformOp {
             translate: Some([centre.x, centre.y, bounds.min.z - distance]),
             ..TransformOp::default()
         }));
     }
-    s
+    SensorDesc { plugin: PluginDesc { kind: camera::DEFAULT_TYPE.to_string(), props }, to_world, film: FilmDesc::default() }
 }
 
 fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
@@ -392,9 +402,9 @@ fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
     if s.to_world.is_some() {
         invertible_linear_part(ctx, "sensor.to_world", to_world)?;
     }
-    let (projection, fov_key) = projection(ctx, s)?;
+    let projection = projection(ctx, s)?;
     let mut camera = Camera::with_projection(to_world, projection, s.film.width, s.film.height).map_err(|e| match e {
-        CameraError::Fov(_) => ctx.key_error(fov_key, e.to_string()),
+        CameraError::Fov(_) => ctx.key_error("sensor.fov", e.to_string()),
         CameraError::ZeroSizeFilm { width: 0, .. } => ctx.key_error("sensor.film.width", e.to_string()),
         CameraError::ZeroSizeFilm { .. } => ctx.key_error("sensor.film.height", e.to_string()),
         CameraError::FilmTooLarge { .. } => ctx.key_error("sensor.film", e.to_string()),
@@ -416,61 +426,9 @@ fn camera(ctx: &ErrorContext, s: &SensorDesc) -> Result<Camera, SceneError> {
     Ok(camera)
 }
 
-/// The sensor's projection (`crate::camera::Projection`) and the key its field of view came from: the keys
-/// of its type, Mitsuba's defaults for those left out (`crate::camera`), the keys of other types refused.
-fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<(Projection, &'static str), SceneError> {
-    let kind = s.kind;
-    let not_for = |key: &str, given: bool, applies: bool| {
-        if given && !applies {
-            let name = match kind {
-                SensorType::Perspective => "a perspective",
-                SensorType::Thinlens => "a thinlens",
-                SensorType::Orthographic => "an orthographic",
-            };
-            return Err(ctx.key_error(key, format!("{name} sensor has no {}", key.trim_start_matches("sensor."))));
-        }
-        Ok(())
-    };
-    let lens = kind == SensorType::Thinlens;
-    not_for("sensor.aperture_radius", s.aperture_radius.is_some(), lens)?;
-    not_for("sensor.focus_distance", s.focus_distance.is_some(), lens)?;
-    let perspective = kind != SensorType::Orthographic;
-    not_for("sensor.fov", s.fov.is_some(), perspective)?;
-    not_for("sensor.focal_length", s.focal_length.is_some(), perspective)?;
-    let near_clip = s.near_clip.unwrap_or(camera::DEFAULT_NEAR_CLIP);
-    let far_clip = s.far_clip.unwrap_or(camera::DEFAULT_FAR_CLIP);
-    Ok(match kind {
-        SensorType::Perspective => {
-            let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;
-            (Projection::Perspective { fov_deg, fov_axis, near_clip, far_clip }, key)
-        }
-        SensorType::Thinlens => {
-            let (fov_deg, fov_axis, key) = field_of_view(ctx, s)?;
-            // thinlens.cpp reads `aperture_radius` without a default.
-            let aperture_radius = s.aperture_radius.ok_or_else(|| ctx.key_error("sensor", "a thinlens sensor needs aperture_radius"))?;
-            // `ProjectiveCamera`: the focal plane defaults to the far clip plane.
-            let focus_distance = s.focus_distance.unwrap_or(far_clip);
-            (Projection::ThinLens { fov_deg, fov_axis, aperture_radius, focus_distance, near_clip, far_clip }, key)
-        }
-        SensorType::Orthographic => (Projection::Orthographic { near_clip, far_clip }, "sensor"),
-    })
-}
-
-/// The sensor's field of view in degrees, its axis, and the key it came from: `fov` (with `fov_axis`), or
-/// else the 35 mm equivalent `focal_length` (Mitsuba's default "50mm") across the film's diagonal
-/// ([`crate::camera::focal_length_fov`]).
-fn field_of_view(ctx: &ErrorContext, s: &SensorDesc) -> Result<(f32, FovAxis, &'static str), SceneError> {
-    const KEY: &str = "sensor.focal_length";
-    match (s.fov, &s.focal_length) {
-        (Some(_), Some(_)) => Err(ctx.key_error(KEY, "give either fov or focal_length, not both")),
-        (Some(fov), None) => Ok((fov, s.fov_axis, "sensor.fov")),
-        (None, focal_length) => {
-            let text = focal_length.as_deref().unwrap_or("50mm");
-            let fov = crate::camera::focal_length_fov(text)
-                .ok_or_else(|| ctx.key_error(KEY, format!("{text:?} is not a focal length (a positive number of millimetres, \"50mm\")")))?;
-            Ok((fov, FovAxis::Diagonal, KEY))
-        }
-    }
+/// The sensor's projection (`crate::camera::Projection`), built by its type's constructor (`camera::PLUGINS`).
+fn projection(ctx: &ErrorContext, s: &SensorDesc) -> Result<Projection, SceneError> {
+    plugins::build(ctx, "sensor", Role::Sensor, camera::PLUGINS, &s.plugin, |_, _| Ok(()))
 }
 
 /// `[sensor.film.rfilter]` → the filter, built by its type's constructor (`film::filter::PLUGINS`).
@@ -653,9 +611,14 @@ mod sensor_tests {
             ("type = \"thinlens\"\naperture_radius = -1", "sensor.aperture_radius", "≥ 0"),
             ("type = \"thinlens\"\naperture_radius = 0.1\nfocus_distance = 0", "sensor.focus_distance", "> 0"),
             ("type = \"thinlens\"\naperture_radius = 0.1\nto_world = { scale = 2 }", "sensor.to_world", "must not scale"),
-            ("type = \"orthographic\"\nfov = 40", "sensor.fov", "an orthographic sensor has no fov"),
+            ("type = \"orthographic\"\nfov = 40", "sensor.fov", "`fov` does not apply to sensor type `orthographic`"),
             ("type = \"orthographic\"\nnear_clip = 2\nfar_clip = 1", "sensor.far_clip", "greater than near_clip"),
-            ("aperture_radius = 0.1", "sensor.aperture_radius", "a perspective sensor has no aperture_radius"),
+            ("aperture_radius = 0.1", "sensor.aperture_radius", "`aperture_radius` does not apply to sensor type `perspective`"),
+            ("fov = 40\nfocal_length = \"35mm\"", "sensor.focal_length", "either fov or focal_length"),
+            ("fov = 180", "sensor.fov", "(0, 180)"),
+            ("fov_axis = \"z\"", "sensor.fov_axis", "not an axis"),
+            ("focal_length = \"wide\"", "sensor.focal_length", "not a focal length"),
+            ("type = \"fisheye\"", "sensor.type", "unknown sensor type"),
         ] {
             let e = load(sensor).err().unwrap_or_else(|| panic!("{sensor}: loads"));
             assert!(e.contains(key) && e.contains(says), "{sensor}: {e}");

@@ -14,7 +14,6 @@ use serde::de::{Deserialize, Deserializer, Error as _, MapAccess, SeqAccess, Vis
 use serde::Deserialize as DeriveDeserialize;
 
 use super::settings::{defaults, CausticsSettings, Estimator};
-use crate::camera::FovAxis;
 use crate::math::Vec3;
 
 #[derive(Debug, DeriveDeserialize)]
@@ -92,35 +91,43 @@ impl Default for CausticsDesc {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, DeriveDeserialize)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum SensorType {
-    #[default]
-    Perspective,
-    Thinlens,
-    Orthographic,
+/// The `[sensor]` table: the keys every sensor takes (`crate::camera::COMMON_KEYS`), read here, and the sensor
+/// type's own table (`crate::camera`: its type reads its keys); `type` defaults to
+/// `crate::camera::DEFAULT_TYPE`.
+#[derive(Debug)]
+pub(crate) struct SensorDesc {
+    pub plugin: PluginDesc,
+    pub to_world: Option<ToWorld>,
+    pub film: FilmDesc,
 }
 
-#[derive(Debug, Default, DeriveDeserialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct SensorDesc {
-    #[serde(rename = "type", default)]
-    pub kind: SensorType,
-    /// Degrees along `fov_axis`; without it, `focal_length` sets the field of view (`build`).
-    pub fov: Option<f32>,
-    /// A 35 mm film equivalent focal length, `"50mm"` (Mitsuba's default when neither is given).
-    pub focal_length: Option<String>,
-    #[serde(default)]
-    pub fov_axis: FovAxis,
-    /// Mitsuba's clip planes, depths along the viewing axis (`crate::camera`, defaults there).
-    pub near_clip: Option<f32>,
-    pub far_clip: Option<f32>,
-    /// thinlens only: the aperture's radius (required) and the distance in focus (default far_clip).
-    pub aperture_radius: Option<f32>,
-    pub focus_distance: Option<f32>,
-    pub to_world: Option<ToWorld>,
-    #[serde(default)]
-    pub film: FilmDesc,
+impl<'de> Deserialize<'de> for SensorDesc {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = SensorDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a sensor table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<SensorDesc, A::Error> {
+                let (mut to_world, mut film) = (None, None);
+                let mut own = toml::Table::new();
+                while let Some(key) = map.next_key::<String>()? {
+                    match key.as_str() {
+                        "to_world" => to_world = Some(map.next_value()?),
+                        "film" => film = Some(map.next_value()?),
+                        _ => {
+                            own.insert(key, map.next_value()?);
+                        }
+                    }
+                }
+                own.entry("type").or_insert_with(|| crate::camera::DEFAULT_TYPE.into());
+                let plugin = PluginDesc::from_table(own).map_err(A::Error::custom)?;
+                Ok(SensorDesc { plugin, to_world, film: film.unwrap_or_default() })
+            }
+        }
+        deserializer.deserialize_map(V)
+    }
 }
 
 #[derive(Debug, DeriveDeserialize)]

@@ -183,6 +183,8 @@ mod tests {
             (format!("{HEAD}[shapegroup.g]\nshape = [ {{ type = \"cube\", emitter = {{ type = \"area\", radiance = 1 }} }} ]\n"), "shapegroup.g.shape[0].emitter", "Instancing of emitters is not supported"),
             (format!("{HEAD}[shapegroup.g]\nshape = [ {{ type = \"instance\", shapegroup = \"g\" }} ]\n"), "shapegroup.g.shape[0].type", "Nested instancing"),
             (format!("{HEAD}[[shape]]\ntype = \"shapegroup\"\n"), "shape[0].type", "[shapegroup.<id>]"),
+            // An instance far from the origin for its size, as a flat shape would be (`precision`).
+            (format!("{HEAD}[[shape]]\ntype = \"instance\"\nshapegroup = \"g\"\nto_world = {{ translate = [1e6, 0, 0] }}\n{group}"), "shape[0]", "the instance lies 1.0000e6 from the origin"),
         ] {
             let e = load(&text).err().unwrap_or_else(|| panic!("loads: {text}"));
             assert!(e.contains(key) && e.contains(says), "{key}: {e}");

@@ -3,7 +3,7 @@
 //! reader's report of everything a scene uses that caustica cannot render (`xml::unsupported`). Each role's
 //! types are listed where their values are defined, one file per type with its keys, defaults, checks and
 //! constructor (`crate::bsdf::PLUGINS`, `crate::shape::PLUGINS`, `crate::emitter::PLUGINS`,
-//! `crate::film::filter::PLUGINS`, `crate::texture::PLUGINS`), and built by [`build`].
+//! `crate::film::filter::PLUGINS`, `crate::texture::PLUGINS`, `crate::camera::PLUGINS`), and built by [`build`].
 //!
 //! Keys keep Mitsuba's property names, so the same names serve the TOML tables and the XML properties.
 
@@ -11,6 +11,7 @@ use super::error::{ErrorContext, SceneError};
 use super::spans::join_key;
 use super::desc::PluginDesc;
 use crate::bsdf;
+use crate::camera;
 use crate::emitter;
 use crate::shape;
 use crate::film::filter;
@@ -25,6 +26,7 @@ pub(crate) enum Role {
     Emitter,
     RFilter,
     Texture,
+    Sensor,
 }
 
 impl Role {
@@ -36,6 +38,7 @@ impl Role {
             Role::Emitter => "emitter",
             Role::RFilter => "rfilter",
             Role::Texture => "texture",
+            Role::Sensor => "sensor",
         }
     }
 
@@ -43,6 +46,7 @@ impl Role {
     fn common(self) -> &'static [&'static str] {
         match self {
             Role::Shape => shape::COMMON_KEYS,
+            Role::Sensor => camera::COMMON_KEYS,
             Role::Bsdf | Role::Emitter | Role::RFilter | Role::Texture => &[],
         }
     }
@@ -63,6 +67,7 @@ pub(crate) fn keys(role: Role, name: &str) -> Option<Vec<&'static str>> {
         Role::Texture => props::find(texture::PLUGINS, name)?.keys,
         Role::Shape => props::find(shape::PLUGINS, name)?.keys,
         Role::Emitter => emitter::plugin(name)?.keys,
+        Role::Sensor => props::find(camera::PLUGINS, name)?.keys,
     };
     Some(role.common().iter().chain(own.iter()).copied().collect())
 }
@@ -140,7 +145,7 @@ mod tests {
         fn names<T, C>(plugins: &[&Plugin<T, C>]) -> Vec<&'static str> {
             plugins.iter().map(|p| p.name).collect()
         }
-        for list in [names(bsdf::PLUGINS), names(shape::PLUGINS), names(emitter::PLUGINS), names(filter::PLUGINS), names(texture::PLUGINS)] {
+        for list in [names(bsdf::PLUGINS), names(shape::PLUGINS), names(emitter::PLUGINS), names(filter::PLUGINS), names(texture::PLUGINS), names(camera::PLUGINS)] {
             for (i, n) in list.iter().enumerate() {
                 assert!(!list[..i].contains(n), "{n} twice");
             }

@@ -8,6 +8,7 @@
 //! and 27% at 1e6, with the spheres black. Rather than render such a shape wrong without a word, the
 //! loader refuses a shape that lies more than [`MAX_OFFSET_PER_SIZE`] times its own size from the origin.
 
+use crate::math::Aabb;
 use crate::mesh::TriangleMesh;
 
 /// A shape may lie at most this many times its own size (bounding-box diagonal) from the origin
@@ -17,7 +18,13 @@ pub const MAX_OFFSET_PER_SIZE: f32 = 16384.0;
 
 /// `Err(message)` if the placed mesh lies too far from the origin for its size (see the module docs).
 pub(crate) fn check_offset(mesh: &TriangleMesh) -> Result<(), String> {
-    let b = mesh.bounds();
+    check_box(mesh.bounds())
+}
+
+/// `Err(message)` if a shape whose world box is `b` lies too far from the origin for its size: a placed mesh
+/// ([`check_offset`]) or an instance, whose prototype is held in object space but shaded in world space
+/// (`Scene::interaction`: the point's error bound grows with its distance from the origin as a flat shape's).
+pub(crate) fn check_box(b: Aabb) -> Result<(), String> {
     if b.is_empty() {
         return Ok(());
     }

@@ -89,7 +89,7 @@ fn visit(el: &Element, options: ConvertOptions, found: &mut Vec<Unsupported>) {
         "emitter" => plugins::keys(Role::Emitter, kind),
         "rfilter" => plugins::keys(Role::RFilter, kind),
         "texture" => plugins::keys(Role::Texture, kind),
-        "sensor" => crate::camera::SENSORS.iter().find(|(name, _)| *name == kind).map(|(_, keys)| keys.to_vec()),
+        "sensor" => plugins::keys(Role::Sensor, kind),
         "film" => (kind == "hdrfilm")
             .then(|| vec!["width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height"]),
         "sampler" => SAMPLER_TYPES.contains(&kind).then(|| vec!["sample_count", "seed"]),
