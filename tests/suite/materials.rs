@@ -160,6 +160,20 @@ fn emitter_texture_mis_matches_mitsuba() {
 }
 
 #[test]
+fn shape_lights_pt_match_mitsuba() {
+    // Area emitters on a sphere (NEE by solid angle), an elliptic disk and a cylinder with a checkerboard on
+    // its uvs, against Mitsuba's analytic emitters.
+    matches_mitsuba("shape-lights", Estimator::Pt, 512);
+}
+
+#[test]
+fn shape_lights_mis_match_mitsuba() {
+    // The glass sphere's caustic from the photons of the three analytic lights, and T2's density at a point
+    // of each.
+    matches_mitsuba("shape-lights", Estimator::Mis, 64);
+}
+
+#[test]
 fn disk_and_cylinder_pt_match_mitsuba() {
     // Tessellated disks and cylinders against Mitsuba's analytic ones: a disk light, Mitsuba's uvs on both
     // (a checkerboard), a cylinder placed by p0, p1 and radius.
