@@ -7,8 +7,10 @@
 //! `n(φ) = (cos φ, sin φ, 0)` the object-space normal, so a point uniform in `(φ, z)` has
 //! `pdf_a = 1/(2π·|det M|·|M⁻ᵀ·n(φ)|)` — `1/(2π·r·ℓ)` everywhere under Mitsuba's placements, varying with
 //! φ on an elliptic tube. The area is `|det M|·∫|M⁻ᵀ·n(φ)| dφ`, by the trapezoidal rule (exact to f32
-//! rounding for this smooth periodic integrand). The emitting normal is `M⁻ᵀ·n(φ)` normalised (outward),
-//! negated by `flip_normals`. Texture coordinates: `u = φ/2π`, `v = z`.
+//! rounding for this smooth periodic integrand). The emitting normal is Mitsuba's hit normal
+//! `∂p/∂φ × ∂p/∂z = det M·M⁻ᵀ·n(φ)` normalised (outward, inward under a mirroring `to_world`), negated by
+//! `flip` — Mitsuba's `m_flip_normals`, which is `flip_normals` toggled by a mirror, so the two cancel and a
+//! mirrored tube still emits outward. Texture coordinates: `u = φ/2π`, `v = z`.
 
 use super::{affine_point_error, azimuth_fraction, linear, SurfacePoint};
 use crate::math::{Mat3, Vec2, Vec3};
@@ -22,7 +24,7 @@ const AREA_NODES: usize = 4096;
 pub struct CylinderShape {
     to_world: Affine3A,
     to_object: Affine3A,
-    /// `M⁻ᵀ`, which carries object-space normals to world space.
+    /// `sign(det M)·M⁻ᵀ`: the object-space normal `n(φ)` to the direction of `∂p/∂φ × ∂p/∂z`.
     normal_matrix: Mat3,
     abs_det: f32,
     flip: bool,
@@ -30,8 +32,8 @@ pub struct CylinderShape {
 }
 
 impl CylinderShape {
-    /// The tube Mitsuba places by `to_world`, emitting outward or, with `flip`, inward. `None` if
-    /// `to_world` is singular or its area is not positive and finite.
+    /// The tube Mitsuba places by `to_world`, emitting along `∂p/∂φ × ∂p/∂z` or, with `flip`, against it
+    /// (module docs). `None` if `to_world` is singular or its area is not positive and finite.
     #[must_use]
     pub fn new(to_world: Affine3A, flip: bool) -> Option<Self> {
         let m = linear(&to_world);
@@ -39,7 +41,7 @@ impl CylinderShape {
         if !(det != 0.0 && det.is_finite()) {
             return None;
         }
-        let normal_matrix = m.inverse().transpose();
+        let normal_matrix = m.inverse().transpose() * det.signum();
         let abs_det = det.abs();
         let step = std::f64::consts::TAU / AREA_NODES as f64;
         let integral: f64 = (0..AREA_NODES)
@@ -62,7 +64,7 @@ impl CylinderShape {
         self.area
     }
 
-    /// The unnormalised world normal `M⁻ᵀ·n(φ)` at the object-space point on the tube of azimuth φ.
+    /// The unnormalised world normal `sign(det M)·M⁻ᵀ·n(φ)` at the object-space point of azimuth φ.
     fn normal_at(&self, cos_phi: f32, sin_phi: f32) -> Vec3 {
         self.normal_matrix * Vec3::new(cos_phi, sin_phi, 0.0)
     }

@@ -4,10 +4,11 @@
 //! from inside), the [`DiskShape`] and the [`CylinderShape`] by area, each under an affine `to_world`.
 //!
 //! Each shape is given by plain parameters (its `to_world` as an `Affine3A` of Mitsuba's object-space
-//! shape, and `flip_normals`), so the light does not depend on how the intersector stores it. The normal
-//! a surface point carries is its **emitting side** (Mitsuba's area emitter is one-sided): the object-space
-//! outward normal placed by the inverse transpose of `to_world` (the rule `scene::build` applies to mesh
-//! normals), negated by `flip_normals`. Texture coordinates are Mitsuba's at every point (`uv`).
+//! shape, and whether its normal is negated), so the light does not depend on how the intersector stores
+//! it; the intersector's hit normals must equal the light's. The normal a surface point carries is its
+//! **emitting side** (Mitsuba's area emitter is one-sided): Mitsuba's hit normal of the shape (each file
+//! says which), negated by `flip` (Mitsuba's `m_flip_normals`). Texture coordinates are Mitsuba's at every
+//! point (`uv`).
 //!
 //! Densities: `pdf_a` per unit area of the world-space surface; `pdf_w` per steradian at a reference point,
 //! 0 when the point's emitting side faces away from the reference point. Every sampler and its `pdf_*`
