@@ -159,8 +159,15 @@ impl SphereShape {
     /// Mitsuba's texture coordinates of the surface point `p` (module docs).
     #[must_use]
     pub fn uv(&self, p: Vec3) -> Vec2 {
-        let local = self.to_object.transform_point3(p).normalize_or_zero();
-        let theta = local.z.clamp(-1.0, 1.0).acos();
-        Vec2::new(azimuth_fraction(local.y, local.x), theta * (1.0 / PI))
+        let local = self.to_object.transform_point3(p);
+        Vec2::new(azimuth_fraction(local.y, local.x), unit_angle_z(local) * (1.0 / PI))
     }
+}
+
+/// Dr.Jit's `unit_angle_z`: the angle of `v` from +z as `2·asin(|v − ẑ|/2)`, or `π − 2·asin(|v + ẑ|/2)`
+/// below the equator (exact near the poles, where `acos(v.z)` is not), for a unit `v`; Mitsuba's sphere
+/// applies it to its object-space point as it is.
+fn unit_angle_z(v: Vec3) -> f32 {
+    let half_chord = |z: f32| (0.5 * (v.x * v.x + v.y * v.y + z * z).sqrt()).min(1.0).asin();
+    if v.z >= 0.0 { 2.0 * half_chord(v.z - 1.0) } else { PI - 2.0 * half_chord(v.z + 1.0) }
 }
