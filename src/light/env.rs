@@ -47,7 +47,7 @@ pub struct EnvMap {
     integral: Vec3,
     /// The sun's disc, if the map has one, and the probability of sampling it.
     sun: Option<EnvSun>,
-    sun_prob: f32,
+    pub(super) sun_prob: f32,
 }
 
 /// `(u, v) ∈ [0, 1)×[0, 1]` of a unit direction in the map's local frame (Mitsuba's mapping).
@@ -261,7 +261,7 @@ impl EnvMap {
     }
 
     /// The image's solid-angle density alone.
-    fn pdf_map(&self, dir_world: Vec3) -> f32 {
+    pub(super) fn pdf_map(&self, dir_world: Vec3) -> f32 {
         let Some(dist) = &self.distribution else { return 0.0 };
         let d = self.to_local_dir(dir_world);
         let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
@@ -272,7 +272,7 @@ impl EnvMap {
     }
 
     /// Samples a direction ∝ the importance distribution (the pdf is [`EnvMap::pdf_li`] of the direction).
-    fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
+    pub(super) fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
         let wi = match &self.sun {
             // u.x chooses the technique and is reused, rescaled, for the chosen one.
             Some(sun) if u.x < self.sun_prob => sun.sample(Vec2::new((u.x / self.sun_prob).min(1.0), u.y)),
