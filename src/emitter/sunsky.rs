@@ -202,6 +202,7 @@ impl SunSky {
 
     /// Mitsuba's `eval` from the unit local direction `d`: the analytic sky plus the sun's disc (whose
     /// radiance differs from the light's by Mitsuba's f32 solid angle, [`SunSky::sun_disc_radiance`]).
+    #[cfg(test)]
     pub(crate) fn radiance(&self, d: Vec3) -> Vec3 {
         if self.sun_local.z < 0.0 || d.z < 0.0 {
             return Vec3::ZERO;

@@ -145,3 +145,42 @@ fn bad_values_are_named_by_key() {
     assert_eq!(key("complex_sun = true", None), "complex_sun");
     assert_eq!(key("", Some(Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0)))), "to_world");
 }
+
+/// The bake's error (decision 35): the map against the model at 20,000 uniform directions of each case's sky
+/// (outside the sun's disc, the horizon's and the zenith's rows), and the irradiance of a horizontal surface
+/// from the sky by both (paired, the same directions).
+#[test]
+fn baked_sky_is_within_its_bilinear_error_of_the_model() {
+    use crate::sampler::Sampler;
+    use crate::sampling::warp::square_to_uniform_hemisphere;
+    let band = (std::f32::consts::PI / SKY_HEIGHT as f32).sin();
+    let mut s = Sampler::for_key(3, 0, 0);
+    for (i, c) in cases().iter().enumerate() {
+        let sky = build(&c.keys, c.to_world).unwrap();
+        let Ok(Emitter::Delta(Some(Light::Env(env)))) = light(&c.keys, c.to_world) else { panic!("case {i}: no light") };
+        let to_world = Mat3::from_mat4(c.to_world.unwrap_or(Mat4::IDENTITY));
+        let model = super::sunsky_model::Sky::new(f64::from(sky.turbidity), sky.albedo.as_dvec3().to_array(), sky.sun_elevation(), f64::from(sky.sky_scale));
+        let (mut worst, mut sum_rel, mut n) = (0.0f64, 0.0f64, 0usize);
+        let (mut e_map, mut e_model) = (0.0f64, 0.0f64);
+        for _ in 0..20_000 {
+            let d = square_to_uniform_hemisphere(s.next_2d());
+            let w = (to_world * d).normalize();
+            if env.sun().is_some_and(|sun| sun.contains(w)) {
+                continue;
+            }
+            let (a, b) = (crate::film::luminance(env.eval(w)), crate::film::luminance(sky.sky_radiance(&model, d)));
+            e_map += f64::from(a * d.z);
+            e_model += f64::from(b * d.z);
+            if d.z < band || d.z > (1.0 - band * band / 2.0) {
+                continue;
+            }
+            let r = f64::from((a - b).abs() / b);
+            worst = worst.max(r);
+            sum_rel += r;
+            n += 1;
+        }
+        let irradiance = e_map / e_model - 1.0;
+        println!("case {i}: map against model: mean {:.2e}, worst {worst:.2e}; horizontal irradiance {irradiance:+.2e}", sum_rel / n as f64);
+        assert!(worst < 2e-2 && sum_rel / (n as f64) < 2e-4 && irradiance.abs() < 1e-4, "case {i}: worst {worst}, irradiance {irradiance}");
+    }
+}
