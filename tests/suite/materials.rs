@@ -378,3 +378,16 @@ fn anisotropy_mis_matches_mitsuba() {
     // The glass sphere's caustic on the anisotropic floor: photons gathered through the same frame.
     matches_mitsuba("anisotropy", Estimator::Mis, 64);
 }
+
+#[test]
+fn sunsky_pt_matches_mitsuba() {
+    // Mitsuba's `sunsky` (decision 35): the Hošek–Wilkie sky baked into an environment map, the sun an exact
+    // disc the map carries; the sun's position from a date and a place, the frame turned by `to_world`.
+    matches_mitsuba("sunsky", Estimator::Pt, 512);
+}
+
+#[test]
+fn sunsky_mis_matches_mitsuba() {
+    // `mis` with the sunsky in its light set (no delta surface here: the photon pass finds nothing to store).
+    matches_mitsuba("sunsky", Estimator::Mis, 64);
+}
