@@ -14,6 +14,7 @@
 pub mod area;
 pub mod delta;
 pub mod env;
+pub mod env_sun;
 pub mod projector;
 pub mod set;
 
@@ -35,6 +36,7 @@ mod tests_env;
 pub use area::AreaLight;
 pub use delta::{DirectionalLight, PointLight, SpotProfile, SpotTexture};
 pub use env::EnvMap;
+pub use env_sun::EnvSun;
 pub use projector::{Frustum, ProjectorProfile};
 pub use set::LightSet;
 
