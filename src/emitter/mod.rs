@@ -64,9 +64,10 @@ pub enum Emitter {
     Projector(Projector),
     /// `spot`: its light once the scene reader has its texture, if it has one ([`Spot::light`]).
     Spot(Spot),
-    /// `point`, `directional`, `sunsky`: the light itself, built by the constructor; `None` when it emits
-    /// nothing (left out of the scene, as every emitter of zero power is).
-    Delta(Option<Light>),
+    /// `point`, `directional`, `sunsky`: the light itself, built whole by the constructor (no file or texture
+    /// for the scene reader to bind); `None` when it emits nothing (left out of the scene, as every emitter of
+    /// zero power is).
+    Built(Option<Light>),
 }
 
 /// The emitter type Mitsuba names `name`.
@@ -122,11 +123,11 @@ mod tests {
     fn defaults_are_mitsubas() {
         assert!(matches!(build("type = \"area\"", None), Ok(Emitter::Area { radiance }) if radiance == Vec3::ONE));
         assert!(matches!(build("type = \"constant\"", None), Ok(Emitter::Constant { radiance }) if radiance == Vec3::ONE));
-        let Ok(Emitter::Delta(Some(Light::Point(p)))) = build("type = \"point\"", None) else { panic!() };
+        let Ok(Emitter::Built(Some(Light::Point(p)))) = build("type = \"point\"", None) else { panic!() };
         assert_eq!(p.position(), Vec3::ZERO);
-        let Ok(Emitter::Delta(Some(Light::Point(p)))) = build("type = \"point\"", Some(Mat4::from_translation(Vec3::X))) else { panic!() };
+        let Ok(Emitter::Built(Some(Light::Point(p)))) = build("type = \"point\"", Some(Mat4::from_translation(Vec3::X))) else { panic!() };
         assert_eq!(p.position(), Vec3::X);
-        assert!(matches!(build("type = \"directional\"\nirradiance = 0", None), Ok(Emitter::Delta(None))));
+        assert!(matches!(build("type = \"directional\"\nirradiance = 0", None), Ok(Emitter::Built(None))));
     }
 
     #[test]

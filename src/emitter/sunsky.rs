@@ -74,7 +74,7 @@ pub(crate) struct SunSky {
 
 fn build(mut p: Props<'_, Mat4>) -> Result<Emitter, PropError> {
     let s = read(&mut p)?;
-    Ok(Emitter::Delta(s.light().map_err(|m| PropError::new("to_world", m))?))
+    Ok(Emitter::Built(s.light().map_err(|m| PropError::new("to_world", m))?))
 }
 
 /// An integer key, or `default`.

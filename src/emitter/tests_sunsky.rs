@@ -89,7 +89,7 @@ fn baked_light_matches_mitsuba_away_from_the_horizon() {
     let pole = (std::f32::consts::PI / SKY_HEIGHT as f32).cos();
     let (mut worst, mut checked) = (0.0f32, 0);
     for (i, c) in cases().iter().enumerate() {
-        let Ok(Emitter::Delta(Some(Light::Env(env)))) = light(&c.keys, c.to_world) else { panic!("case {i}: no light") };
+        let Ok(Emitter::Built(Some(Light::Env(env)))) = light(&c.keys, c.to_world) else { panic!("case {i}: no light") };
         let to_local = Mat3::from_mat4(c.to_world.unwrap_or(Mat4::IDENTITY)).transpose();
         for (d, &want) in c.dirs.iter().zip(&c.rgb) {
             let z = (to_local * *d).normalize().z;
@@ -114,13 +114,13 @@ fn defaults_and_black_cases() {
     assert!((s.sun_half_aperture.to_degrees() - 0.2679).abs() < 1e-6);
     // A sun below the horizon, or both scales 0: Mitsuba's emitter is black, ours is left out.
     let below: toml::Table = "sun_direction = [0, 1, -0.1]".parse().unwrap();
-    assert!(matches!(light(&below, None), Ok(Emitter::Delta(None))));
+    assert!(matches!(light(&below, None), Ok(Emitter::Built(None))));
     let off: toml::Table = "sun_scale = 0\nsky_scale = 0".parse().unwrap();
-    assert!(matches!(light(&off, None), Ok(Emitter::Delta(None))));
+    assert!(matches!(light(&off, None), Ok(Emitter::Built(None))));
     // The sky alone is a map without a sun; the sun alone a map that samples only its sun.
-    let Ok(Emitter::Delta(Some(Light::Env(sky)))) = light(&"sun_scale = 0".parse().unwrap(), None) else { panic!() };
+    let Ok(Emitter::Built(Some(Light::Env(sky)))) = light(&"sun_scale = 0".parse().unwrap(), None) else { panic!() };
     assert!(sky.sun().is_none());
-    let Ok(Emitter::Delta(Some(Light::Env(sun)))) = light(&"sky_scale = 0".parse().unwrap(), None) else { panic!() };
+    let Ok(Emitter::Built(Some(Light::Env(sun)))) = light(&"sky_scale = 0".parse().unwrap(), None) else { panic!() };
     let axis = sun.sun().unwrap().axis();
     assert_eq!(sun.eval(-axis), Vec3::ZERO);
     assert!(sun.pdf_li(axis) > 1e3 && sun.pdf_li(-axis) == 0.0);
@@ -157,7 +157,7 @@ fn baked_sky_is_within_its_bilinear_error_of_the_model() {
     let mut s = Sampler::for_key(3, 0, 0);
     for (i, c) in cases().iter().enumerate() {
         let sky = build(&c.keys, c.to_world).unwrap();
-        let Ok(Emitter::Delta(Some(Light::Env(env)))) = light(&c.keys, c.to_world) else { panic!("case {i}: no light") };
+        let Ok(Emitter::Built(Some(Light::Env(env)))) = light(&c.keys, c.to_world) else { panic!("case {i}: no light") };
         let to_world = Mat3::from_mat4(c.to_world.unwrap_or(Mat4::IDENTITY));
         let model = super::sunsky_model::Sky::new(f64::from(sky.turbidity), sky.albedo.as_dvec3().to_array(), sky.sun_elevation(), f64::from(sky.sky_scale));
         let (mut worst, mut sum_rel, mut n) = (0.0f64, 0.0f64, 0usize);
