@@ -29,5 +29,5 @@ fn build(mut p: Props<'_, Mat4>) -> Result<Emitter, PropError> {
     };
     let light = DirectionalLight::new(dir, irradiance)
         .ok_or_else(|| PropError::new(key, "the direction is zero: a directional light needs a direction"))?;
-    Ok(Emitter::Delta((irradiance != Vec3::ZERO).then_some(Light::Directional(light))))
+    Ok(Emitter::Built((irradiance != Vec3::ZERO).then_some(Light::Directional(light))))
 }

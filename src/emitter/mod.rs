@@ -10,6 +10,7 @@
 //! | `spot` | `intensity`, `cutoff_angle`, `beam_width`, `texture` (a texture over the beam), `to_world` | a point light with a beam profile |
 //! | `projector` | `irradiance` (a colour or a texture), `scale`, `fov`, `fov_axis`, `focal_length`, `to_world` | a point light with a textured frustum |
 //! | `directional` | `irradiance`, `direction` or `to_world` | a directional light |
+//! | `sunsky` | `sun_direction` or `latitude`, `longitude`, `timezone`, `year`, `month`, `day`, `hour`, `minute`, `second`; `turbidity`, `albedo`, `sun_scale`, `sky_scale`, `sun_aperture`, `complex_sun`, `to_world` | an environment map of the Hošek–Wilkie sky carrying the sun's disc |
 //!
 //! An emitter's `to_world` is its nested value ([`Props::take_nested`]): the scene reader turns it into a
 //! matrix (`scene::transform`) before the constructor runs. A new emitter type is a file here and its line in
@@ -22,6 +23,11 @@ mod envmap;
 mod point;
 mod projector;
 mod spot;
+mod sunsky;
+mod sunsky_model;
+mod sunsky_position;
+#[cfg(test)]
+mod tests_sunsky;
 
 pub use projector::Projector;
 pub use spot::Spot;
@@ -35,7 +41,7 @@ pub(crate) type Plugin = crate::props::Plugin<Emitter, Mat4>;
 
 /// Every emitter type.
 pub(crate) const PLUGINS: &[&Plugin] =
-    &[&area::PLUGIN, &envmap::PLUGIN, &constant::PLUGIN, &point::PLUGIN, &spot::PLUGIN, &projector::PLUGIN, &directional::PLUGIN];
+    &[&area::PLUGIN, &envmap::PLUGIN, &constant::PLUGIN, &point::PLUGIN, &spot::PLUGIN, &projector::PLUGIN, &directional::PLUGIN, &sunsky::PLUGIN];
 
 /// The emitter type attached to shapes (every other type stands alone).
 pub(crate) const AREA: &str = "area";
@@ -58,9 +64,10 @@ pub enum Emitter {
     Projector(Projector),
     /// `spot`: its light once the scene reader has its texture, if it has one ([`Spot::light`]).
     Spot(Spot),
-    /// `point`, `directional`: the light itself; `None` when it emits nothing (left out of the scene,
-    /// as every emitter of zero power is).
-    Delta(Option<Light>),
+    /// `point`, `directional`, `sunsky`: the light itself, built whole by the constructor (no file or texture
+    /// for the scene reader to bind); `None` when it emits nothing (left out of the scene, as every emitter of
+    /// zero power is).
+    Built(Option<Light>),
 }
 
 /// The emitter type Mitsuba names `name`.
@@ -116,11 +123,11 @@ mod tests {
     fn defaults_are_mitsubas() {
         assert!(matches!(build("type = \"area\"", None), Ok(Emitter::Area { radiance }) if radiance == Vec3::ONE));
         assert!(matches!(build("type = \"constant\"", None), Ok(Emitter::Constant { radiance }) if radiance == Vec3::ONE));
-        let Ok(Emitter::Delta(Some(Light::Point(p)))) = build("type = \"point\"", None) else { panic!() };
+        let Ok(Emitter::Built(Some(Light::Point(p)))) = build("type = \"point\"", None) else { panic!() };
         assert_eq!(p.position(), Vec3::ZERO);
-        let Ok(Emitter::Delta(Some(Light::Point(p)))) = build("type = \"point\"", Some(Mat4::from_translation(Vec3::X))) else { panic!() };
+        let Ok(Emitter::Built(Some(Light::Point(p)))) = build("type = \"point\"", Some(Mat4::from_translation(Vec3::X))) else { panic!() };
         assert_eq!(p.position(), Vec3::X);
-        assert!(matches!(build("type = \"directional\"\nirradiance = 0", None), Ok(Emitter::Delta(None))));
+        assert!(matches!(build("type = \"directional\"\nirradiance = 0", None), Ok(Emitter::Built(None))));
     }
 
     #[test]

@@ -24,5 +24,5 @@ fn build(mut p: Props<'_, Mat4>) -> Result<Emitter, PropError> {
     let (position, to_world) = either_or_to_world(&mut p, "position")?;
     let intensity = power(&p, "intensity")?;
     let position = position.unwrap_or_else(|| to_world.unwrap_or(Mat4::IDENTITY).transform_point3(Vec3::ZERO));
-    Ok(Emitter::Delta((intensity != Vec3::ZERO).then(|| Light::Point(PointLight::new(position, intensity, None)))))
+    Ok(Emitter::Built((intensity != Vec3::ZERO).then(|| Light::Point(PointLight::new(position, intensity, None)))))
 }

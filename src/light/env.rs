@@ -12,12 +12,20 @@
 //! mean instead of the pixel's own luminance makes the pdf positive wherever `eval` is (bilinear
 //! interpolation spreads a bright pixel over half of each neighbour), so NEE alone is unbiased. The sampled
 //! (u, v) maps to a direction with `dω = 2π²·sin θ du dv`, hence `pdf_w = pdf_uv / (2π² sin θ)`.
+//!
+//! A map may carry a sun ([`EnvMap::with_sun`], Mitsuba's `sunsky`): a disc too small for any pixel grid
+//! ([`EnvSun`], 0.27° in radius), added to the map's radiance and sampled as a second technique — the sun with
+//! probability `p = Y(∫sun)/(Y(∫sun) + Y(∫map))`, the map otherwise; `pdf_li` is the mixture.
 
+use super::env_sun::EnvSun;
 use super::{disk_emission, infinite_light_sample, luminance, EmissionSample, LightError, LightSample};
 use crate::math::{Mat3, Mat4, Vec2, Vec3};
 use crate::sampling::distribution::Distribution2D;
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
 use std::path::Path;
+
+/// The largest f32 below 1 (a rescaled sample stays in [0, 1)).
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Largest image accepted (2²⁷ pixels, e.g. 16384 × 8192), so that a corrupt header cannot ask for
 /// an absurd allocation.
@@ -35,8 +43,11 @@ pub struct EnvMap {
     to_local: Mat3,
     /// `None` if the map is black.
     distribution: Option<Distribution2D>,
-    /// `∫ eval(ω) dω` over the sphere, exact for the bilinear interpolant.
+    /// `∫ eval(ω) dω` over the sphere, exact for the bilinear interpolant (the sun's included).
     integral: Vec3,
+    /// The sun's disc, if the map has one, and the probability of sampling it.
+    sun: Option<EnvSun>,
+    pub(super) sun_prob: f32,
 }
 
 /// `(u, v) ∈ [0, 1)×[0, 1]` of a unit direction in the map's local frame (Mitsuba's mapping).
@@ -150,7 +161,32 @@ impl EnvMap {
             to_local: to_world.transpose(),
             distribution,
             integral,
+            sun: None,
+            sun_prob: 0.0,
         })
+    }
+
+    /// The map with `sun` added: its radiance adds to the map's, and NEE and photon emission sample it with
+    /// probability `Y(∫sun)/(Y(∫sun) + Y(∫map))` (1 when the map is black).
+    #[must_use]
+    pub fn with_sun(mut self, sun: EnvSun) -> EnvMap {
+        let (map, disc) = (luminance(self.integral).max(0.0), luminance(sun.integral()).max(0.0));
+        self.sun_prob = if self.distribution.is_none() {
+            1.0
+        } else if disc + map > 0.0 {
+            disc / (disc + map)
+        } else {
+            0.0
+        };
+        self.integral += sun.integral();
+        self.sun = Some(sun);
+        self
+    }
+
+    /// The sun's disc, if the map has one.
+    #[must_use]
+    pub fn sun(&self) -> Option<&EnvSun> {
+        self.sun.as_ref()
     }
 
     /// Bytes the map keeps: its radiance per pixel and its sampling distribution.
@@ -186,6 +222,12 @@ impl EnvMap {
     /// bilinear interpolation of the pixel centres, wrapping in u and clamping in v.
     #[must_use]
     pub fn eval(&self, dir_world: Vec3) -> Vec3 {
+        let sun = self.sun.as_ref().map_or(Vec3::ZERO, |s| s.eval(dir_world.normalize_or_zero()));
+        sun + self.eval_map(dir_world)
+    }
+
+    /// The image's bilinear interpolant alone (no sun).
+    fn eval_map(&self, dir_world: Vec3) -> Vec3 {
         let d = self.to_local_dir(dir_world);
         if d == Vec3::ZERO {
             return Vec3::ZERO;
@@ -204,10 +246,22 @@ impl EnvMap {
         (1.0 - fy) * ((1.0 - fx) * at(i0, j0) + fx * at(i1, j0)) + fy * ((1.0 - fx) * at(i0, j1) + fx * at(i1, j1))
     }
 
-    /// Solid-angle density with which [`EnvMap::sample_li`] produces `dir_world`:
-    /// `pdf_uv(u, v) / (2π² sin θ)`, 0 at the poles and for a black map.
+    /// Solid-angle density with which [`EnvMap::sample_li`] produces `dir_world`: the image's
+    /// `pdf_uv(u, v) / (2π² sin θ)` (0 at the poles and for a black map), mixed with the sun's.
     #[must_use]
     pub fn pdf_li(&self, dir_world: Vec3) -> f32 {
+        match &self.sun {
+            None => self.pdf_map(dir_world),
+            Some(sun) => {
+                let p = self.sun_prob;
+                let map = if p < 1.0 { (1.0 - p) * self.pdf_map(dir_world) } else { 0.0 };
+                map + p * sun.pdf(dir_world.normalize_or_zero())
+            }
+        }
+    }
+
+    /// The image's solid-angle density alone.
+    pub(super) fn pdf_map(&self, dir_world: Vec3) -> f32 {
         let Some(dist) = &self.distribution else { return 0.0 };
         let d = self.to_local_dir(dir_world);
         let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
@@ -218,15 +272,25 @@ impl EnvMap {
     }
 
     /// Samples a direction ∝ the importance distribution (the pdf is [`EnvMap::pdf_li`] of the direction).
-    fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
+    pub(super) fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let wi = match &self.sun {
+            // u.x chooses the technique and is reused, rescaled, for the chosen one.
+            Some(sun) if u.x < self.sun_prob => sun.sample(Vec2::new((u.x / self.sun_prob).min(1.0), u.y)),
+            Some(_) => self.sample_map(Vec2::new(((u.x - self.sun_prob) / (1.0 - self.sun_prob)).clamp(0.0, ONE_MINUS_EPSILON), u.y))?,
+            None => self.sample_map(u)?,
+        };
+        // The same code as pdf_li (one pdf code path; it also absorbs rounding across pixel borders).
+        let pdf_w = self.pdf_li(wi);
+        (pdf_w > 0.0 && pdf_w.is_finite()).then_some((wi, pdf_w))
+    }
+
+    /// A direction ∝ the image's distribution alone.
+    fn sample_map(&self, u: Vec2) -> Option<Vec3> {
         let (uv, pdf_uv) = self.distribution.as_ref()?.sample_continuous(u);
         if pdf_uv.is_nan() || pdf_uv <= 0.0 {
             return None;
         }
-        let wi = (self.to_world * uv_to_local_dir(uv)).normalize();
-        // The same code as pdf_li (one pdf code path; it also absorbs rounding across pixel borders).
-        let pdf_w = self.pdf_li(wi);
-        (pdf_w > 0.0 && pdf_w.is_finite()).then_some((wi, pdf_w))
+        Some((self.to_world * uv_to_local_dir(uv)).normalize())
     }
 
     /// NEE: a direction toward the environment from `p_ref` (any point: the map is at infinity).

@@ -15,6 +15,7 @@
 pub mod area;
 pub mod delta;
 pub mod env;
+pub mod env_sun;
 pub mod projector;
 pub mod set;
 pub mod shapes;
@@ -37,6 +38,7 @@ mod tests_env;
 pub use area::AreaLight;
 pub use delta::{DirectionalLight, PointLight, SpotProfile, SpotTexture};
 pub use env::EnvMap;
+pub use env_sun::EnvSun;
 pub use projector::{Frustum, ProjectorProfile};
 pub use set::LightSet;
 pub use shapes::{AnalyticShape, CylinderShape, DiskShape, SphereShape};

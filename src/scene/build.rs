@@ -70,8 +70,8 @@ enum EmitterPlan {
     Constant {
         radiance: Vec3,
     },
-    /// A point, spot or directional light (no file to load); `None` when it emits nothing.
-    Delta(Option<Light>),
+    /// A light built whole (point, spot, directional, sunsky: no file to load); `None` when it emits nothing.
+    Built(Option<Light>),
     /// A projector and the texture it projects (its `irradiance`).
     Projector(emitter::Projector, Texture),
 }
@@ -183,7 +183,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         .filter_map(|s| Some((join_key(&s.key, "filename"), base_dir.join(s.shape.filename()?))))
         .chain(emitter_plans.iter().filter_map(|e| match e {
             EmitterPlan::Env { key, path, .. } => Some((join_key(key, "filename"), path.clone())),
-            EmitterPlan::Constant { .. } | EmitterPlan::Delta(_) | EmitterPlan::Projector(..) => None,
+            EmitterPlan::Constant { .. } | EmitterPlan::Built(_) | EmitterPlan::Projector(..) => None,
         }));
     for (key, path) in files {
         if !path.exists() {
@@ -270,7 +270,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
                     lights.push(Light::Constant { radiance });
                 }
             }
-            EmitterPlan::Delta(light) => lights.extend(light),
+            EmitterPlan::Built(light) => lights.extend(light),
             EmitterPlan::Projector(projector, texture) => lights.extend(projector.light(texture)),
         }
     }
@@ -508,12 +508,12 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, 
             to_world,
         },
         Emitter::Constant { radiance } => EmitterPlan::Constant { radiance },
-        Emitter::Delta(light) => EmitterPlan::Delta(light),
+        Emitter::Built(light) => EmitterPlan::Built(light),
         Emitter::Projector(p) => {
             let texture = texture.unwrap_or(Texture::Constant(p.irradiance));
             EmitterPlan::Projector(p, texture)
         }
-        Emitter::Spot(s) => EmitterPlan::Delta(s.light(texture)),
+        Emitter::Spot(s) => EmitterPlan::Built(s.light(texture)),
         Emitter::Area { .. } => unreachable!("refused above"),
     })
 }

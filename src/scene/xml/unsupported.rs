@@ -34,7 +34,6 @@ impl fmt::Display for Unsupported {
 }
 
 const LATER_MATERIALS: &str = "not supported yet (textures and materials are the next part of caustica's Mitsuba support)";
-const LATER_SHAPES: &str = "not supported yet (analytic shapes, further emitters and sensors are planned)";
 const OUT_OF_SCOPE: &str = "out of caustica's scope";
 
 /// Mitsuba plugin types caustica lacks: (tag, type, what Mitsuba renders with it, when caustica will).
@@ -49,7 +48,8 @@ const MITSUBA_TYPES: &[(&str, &str, &str, &str)] = &[
     ("shape", "bsplinecurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "linearcurve", "curves (hair, fur)", OUT_OF_SCOPE),
     ("shape", "sdfgrid", "a signed distance field", OUT_OF_SCOPE),
-    ("emitter", "sunsky", "a sun and sky model", LATER_SHAPES),
+    ("emitter", "sky", "a sky (in 0.6 only; Mitsuba 3 dropped it: `sunsky` with `sun_scale` 0 is Mitsuba 3's sky)", OUT_OF_SCOPE),
+    ("emitter", "sun", "a sun (in 0.6 only; Mitsuba 3 dropped it: `sunsky` with `sky_scale` 0 is Mitsuba 3's sun)", OUT_OF_SCOPE),
     ("sensor", "radiancemeter", "a radiance meter (one ray)", OUT_OF_SCOPE),
     ("sensor", "irradiancemeter", "an irradiance meter", OUT_OF_SCOPE),
     ("film", "specfilm", "a film of spectral channels", OUT_OF_SCOPE),

@@ -41,8 +41,9 @@
 //! - `<float>` properties `uoffset`, `voffset`, `uscale`, `vscale` (of a texture) become a
 //!   `<transform name="to_uv">`.
 //!
-//! Mitsuba 3 renames no plugin (`ldrfilm`, `ptracer`, `sunsky`, … of 0.6 stay and are refused later, as
-//! Mitsuba 3 refuses them) and no other property (0.6's `banner`, `strictNormals`, … stay too).
+//! Mitsuba 3 renames no plugin (`ldrfilm`, `ptracer`, `sky`, … of 0.6 stay and are refused later, as
+//! Mitsuba 3 refuses them; 0.6's `sunsky` is read as Mitsuba 3's, as Mitsuba 3 reads it) and no other
+//! property (0.6's `banner`, `strictNormals`, … stay too).
 //!
 //! **Beyond Mitsuba 3**, for what Mitsuba 0.6 rendered and Mitsuba 3.9 refuses or renders differently:
 //! - `<lookAt>` → `<lookat>` (0.6 read both spellings; Mitsuba 3 renamed it until 3.6, then its new parser

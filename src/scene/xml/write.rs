@@ -25,10 +25,11 @@ use super::super::settings::defaults;
 /// `<boolean>`), so a new plugin's keys need no row here unless they are one of these.
 fn tag_of(key: &str) -> Option<&'static str> {
     Some(match key {
-        "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" => "integer",
+        // `year`, `month`, `day`: a sunsky's date.
+        "width" | "height" | "rings" | "segments" | "shape_index" | "lobes" | "year" | "month" | "day" => "integer",
         "center" | "position" | "p0" | "p1" => "point",
         // `rawconstant`'s three raw values: Mitsuba takes a `<vector>` (or a `<float>`), not an `<rgb>`.
-        "direction" | "value" => "vector",
+        "direction" | "value" | "sun_direction" => "vector",
         _ => return None,
     })
 }
