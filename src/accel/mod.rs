@@ -27,6 +27,8 @@
 //! the instances' world boxes, and the detail that decides which rays are far is the median triangle of
 //! the flat soup and of the prototypes (each scaled by its first instance's mean axis scale).
 
+pub mod analytic;
+pub mod analytic_set;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
@@ -149,6 +151,18 @@ impl std::str::FromStr for BackendKind {
 /// chosen backend is built: once, or once over the near and once over the far triangles when far geometry
 /// surrounds the scene (`shell`); prototypes once each, whatever the number of their instances.
 pub fn build_accel(kind: BackendKind, geometry: &Geometry) -> Result<Box<dyn Accel>, AccelError> {
+    let triangles = build_triangles(kind, geometry)?;
+    if geometry.analytic.is_empty() {
+        return Ok(triangles);
+    }
+    if geometry.indices.len() as u64 + geometry.analytic.len() as u64 > u64::from(u32::MAX) {
+        return Err(AccelError::InvalidGeometry("more than 2^32 triangles and analytic shapes".into()));
+    }
+    Ok(Box::new(analytic_set::WithAnalytic::new(triangles, geometry.analytic, geometry.first_analytic())))
+}
+
+/// The backend over the geometry's triangles (flat soup and instances).
+fn build_triangles(kind: BackendKind, geometry: &Geometry) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(geometry.positions, geometry.indices)?;
     geometry.check().map_err(AccelError::InvalidGeometry)?;
     let (positions, flat) = (geometry.positions, geometry.flat_indices());

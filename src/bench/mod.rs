@@ -185,7 +185,7 @@ pub struct BenchInput {
 impl BenchInput {
     #[must_use]
     pub fn geometry(&self) -> crate::accel::Geometry<'_> {
-        crate::accel::Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat, prototypes: &self.prototypes, instances: &self.instances }
+        crate::accel::Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat, prototypes: &self.prototypes, instances: &self.instances, analytic: &[] }
     }
 }
 

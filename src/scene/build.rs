@@ -282,7 +282,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         first = end;
     }
     let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
-    let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances }.instance_bounds();
+    let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances, analytic: &[] }.instance_bounds();
     let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {

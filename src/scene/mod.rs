@@ -319,7 +319,7 @@ impl Scene {
     /// The geometry the intersection backends are built from (`accel::build_accel`).
     #[must_use]
     pub fn geometry(&self) -> Geometry<'_> {
-        Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat_triangles, prototypes: &self.prototypes, instances: &self.instances }
+        Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat_triangles, prototypes: &self.prototypes, instances: &self.instances, analytic: &[] }
     }
 
     /// Triangle `prim`'s shading record.
