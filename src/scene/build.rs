@@ -28,9 +28,10 @@ use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix, to_world_value};
 use super::xml::Places;
-use super::Scene;
+use super::{AnalyticShading, Scene};
 use crate::camera::{self, Camera, CameraError, FovAxis, Projection};
 use crate::film::{filter, PixelFilter};
+use crate::accel::analytic::Analytic;
 use crate::accel::Instance;
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
@@ -201,6 +202,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut tri_has_uv = Vec::new();
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
+    let (mut analytic, mut analytic_shading) = (Vec::new(), Vec::new());
     // The flat shapes, then the groups that some instance places, each group's shapes together.
     let n_flat = shape_plans.len();
     let placed_groups: Vec<usize> = (0..group_plans.len()).filter(|g| instance_plans.iter().any(|(i, _)| *i as usize == *g)).collect();
@@ -208,6 +210,15 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     for (i, plan) in shape_plans.iter().chain(placed_groups.iter().flat_map(|&g| &group_plans[g])).enumerate() {
         if i == n_flat {
             flat_vertices = Some(mesh.positions.len());
+        }
+        if let Some(shape) = analytic_shape(ctx, plan, i < n_flat)? {
+            // No triangles: its entry in `shape_first_triangle` is the next triangle's, as an empty shape's.
+            shape_first_triangle.push(mesh.triangle_count() as u32);
+            let what = format!("the {} shape", plan.shape.type_name());
+            attributes.add_shape(ctx, &plan.key, &what, plan.material, mesh.triangle_count() as u32, mesh.positions.len() as u32, 0, &Attributes::default())?;
+            analytic.push(shape);
+            analytic_shading.push(AnalyticShading { material: plan.material, shape: i as u32, anisotropic: materials[plan.material as usize].facts().anisotropic });
+            continue;
         }
         let (mut placed, shape_attributes) = load_and_place(ctx, plan, base_dir, &|name| attributes.reads(plan.material, name))?;
         let base = mesh.triangle_count();
@@ -284,6 +295,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
     let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances, analytic: &[] }.instance_bounds();
     let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
+    let bounds = analytic.iter().fold(bounds, |b, a| b.union(a.bounds()));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {
             super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
@@ -308,6 +320,8 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         flat_triangles: flat as u32,
         prototypes,
         instances,
+        analytic,
+        analytic_shading,
         lights,
         camera,
         integrator,
@@ -558,6 +572,17 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, 
         Emitter::Spot(s) => EmitterPlan::Delta(s.light(texture)),
         Emitter::Area { .. } => unreachable!("refused above"),
     })
+}
+
+/// The analytic primitive a shape is placed as (`crate::shape`'s rule: not with an emitter, not in a
+/// shapegroup — `flat` is false there — and not a sphere given its tessellation keys), in world space.
+fn analytic_shape(ctx: &ErrorContext, plan: &ShapePlan, flat: bool) -> Result<Option<Analytic>, SceneError> {
+    let Some((kind, placement)) = plan.shape.analytic().filter(|_| flat && plan.radiance.is_none()) else {
+        return Ok(None);
+    };
+    let shape = Analytic::new(kind, plan.to_world * placement, plan.flip);
+    let shape = shape.ok_or_else(|| ctx.key_error(&join_key(&plan.key, "to_world"), format!("the {} has no finite placement", kind.name())))?;
+    Ok(Some(shape))
 }
 
 /// The shape's triangles in world space, with per-vertex normals.
