@@ -43,6 +43,7 @@ use crate::mesh::attribute::Attributes;
 use crate::mesh::TriangleMesh;
 use crate::props::{PropError, Props};
 
+pub use disk::DISK_SEGMENTS;
 pub use sphere::{SPHERE_RINGS, SPHERE_SEGMENTS};
 
 /// A shape type as the scene files name it (`crate::props::Plugin`).
