@@ -4,7 +4,8 @@
 //! 1. **plan** — every value is range-checked, transforms composed, materials resolved; no file is touched;
 //! 2. **files** — every referenced file (meshes, environment maps) must exist;
 //! 3. **load** — meshes are loaded or generated, placed in world space and flattened into one triangle
-//!    soup (per-triangle material and flat flag); each emitting shape becomes one [`AreaLight`]. The
+//!    soup (per-triangle material and flat flag); spheres, disks and cylinders become analytic shapes
+//!    where `crate::shape`'s rule says so (`analytic_shape`); each emitting shape becomes one [`AreaLight`]. The
 //!    shapes of the shapegroups that instances place follow, in their group's object space, each group's
 //!    triangles a prototype (module `instances`).
 //!

@@ -1,6 +1,7 @@
 //! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one triangle soup with a material per triangle
 //! (the flattened shapes in world space, then each instanced shapegroup's shapes once, in object space,
-//! placed by instances), the lights, the camera and the render settings.
+//! placed by instances), the analytic shapes (sphere, disk, cylinder), the lights, the camera and the
+//! render settings.
 //!
 //! Every table rejects unknown keys (`deny_unknown_fields`) and keys that do not apply to its `type`. Errors
 //! ([`SceneError`]) name the file, the key path (`shape[3].bsdf.reflectance`) with its line, and the
@@ -52,7 +53,7 @@
 //! type = "sphere"
 //! center = [0.4, -0.35, 0.25]  # default [0, 0, 0]
 //! radius = 0.3                 # default 1
-//! # rings = 128, segments = 256   (caustica extension: tessellation; defaults shown)
+//! # rings = 128, segments = 256   (caustica extension: a tessellated sphere; defaults shown)
 //! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
 //!
 //! [[shape]]
@@ -105,8 +106,10 @@
 //! **Transforms** (`transform`): `to_world` is one table or a list; in a list **the first element is
 //! applied first** (Mitsuba's XML order), so the floor above is rotated, then translated.
 //!
-//! **Shapes** (`crate::shape`: one file per type; `build` places them): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres are
-//! tessellated (128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius) with smooth normals; meshes
+//! **Shapes** (`crate::shape`: one file per type; `build` places them): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres,
+//! disks and cylinders are analytic (module `analytic`, `accel::analytic`: Mitsuba's quadrics and uvs), except
+//! with an emitter, in a shapegroup, or a sphere given `rings`, `segments` or `face_normals` (then tessellated:
+//! 128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius, smooth normals); meshes
 //! (obj, ply, serialized) use their vertex normals (angle-weighted normals are computed when the file has none) unless
 //! `face_normals = true`. Normals transform with the inverse transpose, and the winding of mirrored shapes
 //! is swapped so the geometric normal follows the shading normal. Each emitting shape becomes one area
