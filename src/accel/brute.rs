@@ -1,7 +1,10 @@
-//! The brute-force intersector: tests every triangle, and every triangle of every instance through the
-//! ray transformed into the instance's object space (`Instance::object_ray`, `t` the world ray's). The
+//! The brute-force intersector: tests every triangle, every triangle of every instance through the
+//! ray transformed into the instance's object space (`Instance::object_ray`, `t` the world ray's), and
+//! every analytic primitive (`analytic_set::closest_linear`). The
 //! oracle the accelerators are tested against; never used for rendering.
 
+use super::analytic::Analytic;
+use super::analytic_set::closest_linear;
 use super::instance::{Geometry, Instance, FLAT};
 use super::triangle::RayPrecomp;
 use super::{Accel, Hit};
@@ -14,6 +17,9 @@ pub struct BruteForce {
     /// Per prototype: its triangles (object space) and the soup index of the first.
     prototypes: Vec<(Vec<[Vec3; 3]>, u32)>,
     instances: Vec<Instance>,
+    /// The analytic primitives and the `prim` of the first.
+    analytic: Vec<Analytic>,
+    first_analytic: u32,
 }
 
 fn corners(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<[Vec3; 3]> {
@@ -24,14 +30,14 @@ impl BruteForce {
     /// Over a soup without instances.
     #[must_use]
     pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
-        Self { tris: corners(positions, indices), prototypes: Vec::new(), instances: Vec::new() }
+        Self { tris: corners(positions, indices), prototypes: Vec::new(), instances: Vec::new(), analytic: Vec::new(), first_analytic: indices.len() as u32 }
     }
 
     /// Over a scene's geometry (flat soup and instances).
     #[must_use]
     pub fn from_geometry(g: &Geometry) -> Self {
         let prototypes = (0..g.prototypes.len()).map(|p| (corners(g.positions, g.prototype_indices(p)), g.prototypes[p].start)).collect();
-        Self { tris: corners(g.positions, g.flat_indices()), prototypes, instances: g.instances.to_vec() }
+        Self { tris: corners(g.positions, g.flat_indices()), prototypes, instances: g.instances.to_vec(), analytic: g.analytic.to_vec(), first_analytic: g.first_analytic() }
     }
 
     /// The closest hit among `tris` (numbered from `first`) below `best`.
@@ -59,6 +65,7 @@ impl Accel for BruteForce {
             let (tris, first) = &self.prototypes[inst.prototype as usize];
             Self::closest(tris, *first, k as u32, &inst.object_ray(ray), &mut best);
         }
+        closest_linear(&self.analytic, self.first_analytic, ray, &mut best);
         best
     }
 
@@ -67,7 +74,9 @@ impl Accel for BruteForce {
             let pre = RayPrecomp::new(ray);
             tris.iter().any(|t| pre.intersect(t[0], t[1], t[2]).is_some())
         };
-        any(&self.tris, ray) || self.instances.iter().any(|i| any(&self.prototypes[i.prototype as usize].0, &i.object_ray(ray)))
+        any(&self.tris, ray)
+            || self.instances.iter().any(|i| any(&self.prototypes[i.prototype as usize].0, &i.object_ray(ray)))
+            || self.analytic.iter().any(|s| s.intersect(ray).is_some())
     }
 
     fn name(&self) -> &'static str {

@@ -13,6 +13,7 @@ use std::ops::Range;
 
 use glam::Affine3A;
 
+use super::analytic::Analytic;
 use crate::math::{Aabb, Ray, Vec3};
 
 /// [`Hit::inst`](super::Hit) of a hit on the flat (not instanced) soup.
@@ -79,13 +80,16 @@ pub struct Geometry<'a> {
     /// Each prototype's triangles (object space), a range of `indices` past `flat`.
     pub prototypes: &'a [Range<u32>],
     pub instances: &'a [Instance],
+    /// The analytic primitives (module `analytic`), world space; their hits' `prim` continue the
+    /// numbering after the soup's triangles (`indices.len() + k`).
+    pub analytic: &'a [Analytic],
 }
 
 impl<'a> Geometry<'a> {
     /// A soup without instances.
     #[must_use]
     pub fn soup(positions: &'a [Vec3], indices: &'a [[u32; 3]]) -> Self {
-        Self { positions, indices, flat: indices.len() as u32, prototypes: &[], instances: &[] }
+        Self { positions, indices, flat: indices.len() as u32, prototypes: &[], instances: &[], analytic: &[] }
     }
 
     #[must_use]
@@ -112,6 +116,12 @@ impl<'a> Geometry<'a> {
     pub fn instance_bounds(&self) -> Vec<Aabb> {
         let proto = self.prototype_bounds();
         self.instances.iter().map(|i| i.world_bounds(proto[i.prototype as usize])).collect()
+    }
+
+    /// `prim` of analytic primitive 0.
+    #[must_use]
+    pub fn first_analytic(&self) -> u32 {
+        self.indices.len() as u32
     }
 
     /// Checks that the prototypes are ranges of the soup past the flat part and that instances name them.

@@ -1,4 +1,4 @@
-//! Ray–triangle intersection behind one interface.
+//! Ray–triangle (and ray–quadric) intersection behind one interface.
 //!
 //! Every backend is built from the scene's geometry ([`Geometry`], module `instance`): a flat triangle
 //! soup in world space and, for Mitsuba's `shapegroup` + `instance`, prototypes (object-space triangles
@@ -26,7 +26,19 @@
 //! the near part (its box grows to hold them). `rebase` treats the instanced scene as one: its box holds
 //! the instances' world boxes, and the detail that decides which rays are far is the median triangle of
 //! the flat soup and of the prototypes (each scaled by its first instance's mean axis scale).
+//!
+//! **Analytic primitives** (Mitsuba's `sphere`, `disk`, `cylinder`: [`analytic`]) are traced beside the
+//! triangles, outside `rebase` and `shell`: [`build_accel`] wraps whatever it built for the triangles in
+//! [`analytic_set::WithAnalytic`] (a box BVH over the primitives, `two_level::TopLevel`) when the geometry
+//! has any, and leaves triangle-only scenes as they were. Every backend, and the oracle, intersects them
+//! by the one f64 routine `Analytic::intersect`, so their analytic hits are bit-identical; a hit on
+//! primitive `k` has `prim = indices.len() + k` and `inst = FLAT` (`scene::Surface`). They are not Embree
+//! user geometry (`RTC_GEOMETRY_TYPE_USER`): that would put the same Rust routine behind callbacks, with
+//! `unsafe` packet layouts for Embree 3 and 4, for hits that are already identical this way
+//! (decision 34).
 
+pub mod analytic;
+pub mod analytic_set;
 pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
@@ -43,8 +55,9 @@ use crate::error::AccelError;
 use crate::math::{Ray, Vec3};
 
 /// A preliminary intersection: distance along the ray (in units of `ray.dir`), the triangle's index in
-/// the scene's soup (a prototype's triangle for a hit on an instance), barycentrics in Embree's
-/// convention, and the instance hit ([`FLAT`] on the flat soup). 20 bytes.
+/// the scene's soup (a prototype's triangle for a hit on an instance; past the triangles, an analytic
+/// primitive's, with `u = v = 0`), barycentrics in Embree's convention, and the instance hit ([`FLAT`] on
+/// the flat soup). 20 bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
@@ -145,10 +158,23 @@ impl std::str::FromStr for BackendKind {
     }
 }
 
-/// Builds the chosen backend over the scene's geometry: the one place every command builds it. Only the
+/// Builds the chosen backend over the scene's geometry: the one place every command builds it, the
+/// analytic primitives beside the triangles (module docs). Only the
 /// chosen backend is built: once, or once over the near and once over the far triangles when far geometry
 /// surrounds the scene (`shell`); prototypes once each, whatever the number of their instances.
 pub fn build_accel(kind: BackendKind, geometry: &Geometry) -> Result<Box<dyn Accel>, AccelError> {
+    let triangles = build_triangles(kind, geometry)?;
+    if geometry.analytic.is_empty() {
+        return Ok(triangles);
+    }
+    if geometry.indices.len() as u64 + geometry.analytic.len() as u64 > u64::from(u32::MAX) {
+        return Err(AccelError::InvalidGeometry("more than 2^32 triangles and analytic shapes".into()));
+    }
+    Ok(Box::new(analytic_set::WithAnalytic::new(triangles, geometry.analytic, geometry.first_analytic())))
+}
+
+/// The backend over the geometry's triangles (flat soup and instances).
+fn build_triangles(kind: BackendKind, geometry: &Geometry) -> Result<Box<dyn Accel>, AccelError> {
     validate_soup(geometry.positions, geometry.indices)?;
     geometry.check().map_err(AccelError::InvalidGeometry)?;
     let (positions, flat) = (geometry.positions, geometry.flat_indices());

@@ -259,7 +259,7 @@ mod tests {
     #[test]
     fn instanced_backends_agree_with_the_oracle_and_the_flattened_scene() {
         let (positions, indices, prototypes, instances, flattened) = scene();
-        let g = Geometry { positions: &positions, indices: &indices, flat: 12, prototypes: &prototypes, instances: &instances };
+        let g = Geometry { positions: &positions, indices: &indices, flat: 12, prototypes: &prototypes, instances: &instances, analytic: &[] };
         let oracle = BruteForce::from_geometry(&g);
         let flat_oracle = BruteForce::new(&flattened.positions, &flattened.indices);
         // Flattened triangle index of (instance, prim).

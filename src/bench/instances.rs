@@ -35,7 +35,7 @@ pub fn placed(input: BenchInput, n: usize, flatten: bool) -> anyhow::Result<Benc
     if !flatten {
         let instances = placements.iter().map(|&m| Instance::new(0, m).expect("scales and turns are invertible")).collect();
         let triangles = mesh.triangle_count() as u32;
-        return Ok(BenchInput { mesh, flat: 0, prototypes: vec![0..triangles], instances });
+        return Ok(BenchInput { mesh, flat: 0, prototypes: vec![0..triangles], instances, analytic: Vec::new() });
     }
     let (v, t) = (mesh.positions.len(), mesh.triangle_count());
     if (v as u128 * n as u128) > u128::from(u32::MAX) || (t as u128 * n as u128) > u128::from(u32::MAX) {
@@ -48,7 +48,7 @@ pub fn placed(input: BenchInput, n: usize, flatten: bool) -> anyhow::Result<Benc
         flat.indices.extend(mesh.indices.iter().map(|tri| tri.map(|i| i + base)));
     }
     let triangles = flat.triangle_count() as u32;
-    Ok(BenchInput { mesh: flat, flat: triangles, prototypes: Vec::new(), instances: Vec::new() })
+    Ok(BenchInput { mesh: flat, flat: triangles, prototypes: Vec::new(), instances: Vec::new(), analytic: Vec::new() })
 }
 
 #[cfg(test)]
@@ -61,7 +61,7 @@ mod tests {
     /// The instanced and the flattened forms are the same scene: every ray meets the same surface.
     #[test]
     fn instanced_and_flattened_placements_agree() {
-        let input = || BenchInput { mesh: shapes::cube(), flat: 12, prototypes: Vec::new(), instances: Vec::new() };
+        let input = || BenchInput { mesh: shapes::cube(), flat: 12, prototypes: Vec::new(), instances: Vec::new(), analytic: Vec::new() };
         let (a, b) = (placed(input(), 150, false).unwrap(), placed(input(), 150, true).unwrap());
         assert_eq!((a.instances.len(), a.mesh.triangle_count(), b.mesh.triangle_count()), (150, 12, 1800));
         let (oa, ob) = (BruteForce::from_geometry(&a.geometry()), BruteForce::from_geometry(&b.geometry()));

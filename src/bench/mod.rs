@@ -165,27 +165,29 @@ pub fn load_input(path: &Path, params: &BTreeMap<String, String>) -> anyhow::Res
     let is_scene = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) || crate::scene::is_xml(path);
     let input = if is_scene {
         let scene = crate::scene::Scene::load_with_params(path, params)?;
-        BenchInput { mesh: scene.mesh, flat: scene.flat_triangles, prototypes: scene.prototypes, instances: scene.instances }
+        BenchInput { mesh: scene.mesh, flat: scene.flat_triangles, prototypes: scene.prototypes, instances: scene.instances, analytic: scene.analytic }
     } else {
         let mesh = load_mesh(path)?;
-        BenchInput { flat: mesh.triangle_count() as u32, mesh, prototypes: Vec::new(), instances: Vec::new() }
+        BenchInput { flat: mesh.triangle_count() as u32, mesh, prototypes: Vec::new(), instances: Vec::new(), analytic: Vec::new() }
     };
     Ok((path.display().to_string(), input))
 }
 
-/// A benchmark input: the scene's soup with its prototypes and instances (none for a mesh file), as
+/// A benchmark input: the scene's soup with its prototypes, instances and analytic shapes (none for a mesh file), as
 /// `Scene` holds them.
 pub struct BenchInput {
     pub mesh: TriangleMesh,
     pub flat: u32,
     pub prototypes: Vec<std::ops::Range<u32>>,
     pub instances: Vec<crate::accel::Instance>,
+    /// The scene's analytic shapes (none for a mesh file).
+    pub analytic: Vec<crate::accel::analytic::Analytic>,
 }
 
 impl BenchInput {
     #[must_use]
     pub fn geometry(&self) -> crate::accel::Geometry<'_> {
-        crate::accel::Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat, prototypes: &self.prototypes, instances: &self.instances }
+        crate::accel::Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat, prototypes: &self.prototypes, instances: &self.instances, analytic: &self.analytic }
     }
 }
 

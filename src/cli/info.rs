@@ -94,6 +94,9 @@ pub fn describe(scene: &Scene) -> String {
     if !scene.instances.is_empty() {
         let _ = writeln!(s, "  instances   {}", instances(scene));
     }
+    if !scene.analytic.is_empty() {
+        let _ = writeln!(s, "  analytic    {} ({})", scene.analytic.len(), tally(scene.analytic.iter().map(|a| a.kind.name())));
+    }
     let delta = scene.materials.iter().filter(|m| m.facts().has_delta).count();
     let _ = writeln!(s, "  materials   {} ({}); {delta} with a delta lobe (mirror/glass)", scene.materials.len(), tally(scene.materials.iter().map(|m| bsdf_kind(m.template()))));
     let lights = scene.lights.lights();

@@ -5,7 +5,8 @@
 //! The estimate counts the largest allocations, each from its element size:
 //! - the mesh: positions (and normals, uvs when present) per vertex, indices, material and flag per
 //!   triangle, and the triangle's shading record (`scene::TriangleShading`, 96 B) — a shapegroup's
-//!   triangles once, however many instances place it — and each instance (`accel::Instance`, 144 B);
+//!   triangles once, however many instances place it — each instance (`accel::Instance`, 144 B) and
+//!   each analytic shape (`accel::analytic::Analytic` and `scene::AnalyticShading`);
 //! - the film: one [`PixelSum`] per pixel of the crop window (its exact sums make it 136 B), and with a
 //!   filter wider than a pixel one [`PixelWeight`] more (64 B); and what a pass keeps per pixel from one
 //!   round to the next (`render::round`): two tile buffers' sums (40 B each, 72 B more with a wide
@@ -62,7 +63,8 @@ impl MemoryEstimate {
     #[must_use]
     pub fn of(scene: &Scene, settings: &RenderSettings) -> Self {
         let m = &scene.mesh;
-        let instances = (scene.instances.len() * size_of::<crate::accel::Instance>()) as u64;
+        let analytic = scene.analytic.len() * (crate::accel::analytic::Analytic::BYTES + size_of::<crate::scene::AnalyticShading>());
+        let instances = (scene.instances.len() * size_of::<crate::accel::Instance>() + analytic) as u64;
         let mesh = mesh_bytes(m.positions.len() as u64, m.indices.len() as u64, m.normals.is_some(), m.uvs.is_some()).saturating_add(instances);
         let photons = photon_pass_needed(scene, settings.estimator).is_ok();
         let filter = scene.camera.filter();

@@ -4,7 +4,8 @@
 //! 1. **plan** — every value is range-checked, transforms composed, materials resolved; no file is touched;
 //! 2. **files** — every referenced file (meshes, environment maps) must exist;
 //! 3. **load** — meshes are loaded or generated, placed in world space and flattened into one triangle
-//!    soup (per-triangle material and flat flag); each emitting shape becomes one [`AreaLight`]. The
+//!    soup (per-triangle material and flat flag); spheres, disks and cylinders become analytic shapes
+//!    where `crate::shape`'s rule says so (`analytic_shape`); each emitting shape becomes one [`AreaLight`]. The
 //!    shapes of the shapegroups that instances place follow, in their group's object space, each group's
 //!    triangles a prototype (module `instances`).
 //!
@@ -28,9 +29,10 @@ use super::settings::{check, CausticsSettings, IntegratorSettings};
 use super::spans::{join_index, join_key, SpanIndex};
 use super::transform::{invertible_linear_part, to_world_matrix, to_world_value};
 use super::xml::Places;
-use super::Scene;
+use super::{AnalyticShading, Scene};
 use crate::camera::{self, Camera, CameraError, Projection};
 use crate::film::{filter, PixelFilter};
+use crate::accel::analytic::Analytic;
 use crate::accel::Instance;
 use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
@@ -205,6 +207,7 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut tri_has_uv = Vec::new();
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
+    let (mut analytic, mut analytic_shading) = (Vec::new(), Vec::new());
     // The flat shapes, then the groups that some instance places, each group's shapes together.
     let n_flat = shape_plans.len();
     let placed_groups: Vec<usize> = (0..group_plans.len()).filter(|g| instance_plans.iter().any(|(i, _)| *i as usize == *g)).collect();
@@ -212,6 +215,15 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     for (i, plan) in shape_plans.iter().chain(placed_groups.iter().flat_map(|&g| &group_plans[g])).enumerate() {
         if i == n_flat {
             flat_vertices = Some(mesh.positions.len());
+        }
+        if let Some(shape) = analytic_shape(ctx, plan, i < n_flat)? {
+            // No triangles: its entry in `shape_first_triangle` is the next triangle's, as an empty shape's.
+            shape_first_triangle.push(mesh.triangle_count() as u32);
+            let what = format!("the {} shape", plan.shape.type_name());
+            attributes.add_shape(ctx, &plan.key, &what, plan.material, mesh.triangle_count() as u32, mesh.positions.len() as u32, 0, &Attributes::default())?;
+            analytic.push(shape);
+            analytic_shading.push(AnalyticShading { material: plan.material, shape: i as u32, anisotropic: materials[plan.material as usize].facts().anisotropic });
+            continue;
         }
         let (mut placed, shape_attributes) = load_and_place(ctx, plan, base_dir, &|name| attributes.reads(plan.material, name))?;
         let base = mesh.triangle_count();
@@ -286,11 +298,12 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         first = end;
     }
     let instances: Vec<Instance> = instance_plans.iter().map(|&(g, m)| Instance::new(g, m).expect("checked by plan_instance")).collect();
-    let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances }.instance_bounds();
+    let instance_boxes = crate::accel::Geometry { positions: &mesh.positions, indices: &mesh.indices, flat: flat as u32, prototypes: &prototypes, instances: &instances, analytic: &[] }.instance_bounds();
     for (b, key) in instance_boxes.iter().zip(&instance_keys) {
         super::precision::check_box(*b).map_err(|m| ctx.key_error(key, m.replacen("the shape", "the instance", 1)))?;
     }
     let bounds = instance_boxes.iter().fold(Aabb::from_points(&mesh.positions[..flat_vertices]), |b, &i| b.union(i));
+    let bounds = analytic.iter().fold(bounds, |b, a| b.union(a.bounds()));
     let camera = match (given_camera, &file.sensor) {
         (Some(camera), Some(_)) => {
             super::precision::check_camera(camera.position(), bounds).map_err(|m| ctx.key_error("sensor.to_world", m))?;
@@ -315,6 +328,8 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         flat_triangles: flat as u32,
         prototypes,
         instances,
+        analytic,
+        analytic_shading,
         lights,
         camera,
         integrator,
@@ -516,6 +531,17 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, 
         Emitter::Spot(s) => EmitterPlan::Built(s.light(texture)),
         Emitter::Area { .. } => unreachable!("refused above"),
     })
+}
+
+/// The analytic primitive a shape is placed as (`crate::shape`'s rule: not with an emitter, not in a
+/// shapegroup — `flat` is false there — and not a sphere given its tessellation keys), in world space.
+fn analytic_shape(ctx: &ErrorContext, plan: &ShapePlan, flat: bool) -> Result<Option<Analytic>, SceneError> {
+    let Some((kind, placement)) = plan.shape.analytic().filter(|_| flat && plan.radiance.is_none()) else {
+        return Ok(None);
+    };
+    let shape = Analytic::new(kind, plan.to_world * placement, plan.flip);
+    let shape = shape.ok_or_else(|| ctx.key_error(&join_key(&plan.key, "to_world"), format!("the {} has no finite placement", kind.name())))?;
+    Ok(Some(shape))
 }
 
 /// The shape's triangles in world space, with per-vertex normals.

@@ -11,7 +11,7 @@
 
 use std::borrow::Cow;
 
-use super::Scene;
+use super::{Scene, Surface};
 use crate::bsdf::{Bsdf, HitFrame, ParamMut};
 use crate::accel::{Hit, FLAT};
 use crate::texture::{MeshPoint, TexEval};
@@ -24,7 +24,8 @@ pub const SHADOW_EPSILON: f32 = 1e-4;
 /// Shading data at a ray–surface hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceInteraction {
-    /// Hit point rebuilt from the barycentrics: `p = (1−u−v)·p0 + u·p1 + v·p2`.
+    /// Hit point rebuilt from the barycentrics: `p = (1−u−v)·p0 + u·p1 + v·p2` (on an analytic shape, the
+    /// hit re-projected onto its surface: module `analytic`).
     pub p: Vec3,
     /// Conservative absolute error bound of `p` per axis (`math::barycentric_point_error`), for
     /// `offset_ray_origin`.
@@ -36,9 +37,11 @@ pub struct SurfaceInteraction {
     pub ns: Vec3,
     /// Shading frame around `ns`.
     pub frame: Frame,
-    /// The hit's barycentrics `(u, v)` (Embree's convention: weights of p1 and p2).
+    /// The hit's barycentrics `(u, v)` (Embree's convention: weights of p1 and p2); on an analytic shape,
+    /// its texture coordinates (Mitsuba's uv).
     pub uv: Vec2,
-    /// Triangle index in the scene's soup (the prototype's triangle on an instance).
+    /// Triangle index in the scene's soup (the prototype's triangle on an instance), or past the triangles
+    /// an analytic shape ([`Scene::surface`] tells which).
     pub prim: u32,
     /// The instance hit (`accel::FLAT` on the flat soup).
     pub inst: u32,
@@ -70,7 +73,9 @@ impl Scene {
     #[inline(always)]
     #[must_use]
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
-        debug_assert!((hit.prim as usize) < self.triangle_count(), "hit on triangle {} of {}", hit.prim, self.triangle_count());
+        if let Surface::Analytic(k) = self.surface(hit.prim) {
+            return self.analytic_interaction(ray, hit, k);
+        }
         // One record per triangle (positions, normals, material): one cache miss, not an index then vertices.
         let tri = self.shading(hit.prim);
         let [p0, p1, p2] = tri.p;
@@ -110,7 +115,7 @@ impl Scene {
     /// turning the frame about `n` changes nothing else's response, and skipping it keeps every other
     /// material's frame, and its images, as they were.
     #[inline(never)]
-    fn with_tangent_frame(&self, mut si: SurfaceInteraction) -> SurfaceInteraction {
+    pub(super) fn with_tangent_frame(&self, mut si: SurfaceInteraction) -> SurfaceInteraction {
         let n = si.ns;
         let dp_du = self.hit_frame(&si).dp_du;
         if let Some(s) = (dp_du - n * n.dot(dp_du)).try_normalize() {
@@ -162,7 +167,8 @@ impl Scene {
         }
         let uv = self.tex_uv(si);
         // The point on the mesh, for the mesh attributes (only in a scene that has them).
-        let mesh = (!self.attributes.is_empty()).then(|| MeshPoint { tables: &self.attributes, indices: &self.mesh.indices, prim: si.prim, bary: si.uv });
+        let on_mesh = !self.attributes.is_empty() && self.surface(si.prim) == Surface::Triangle(si.prim);
+        let mesh = on_mesh.then(|| MeshPoint { tables: &self.attributes, indices: &self.mesh.indices, prim: si.prim, bary: si.uv });
         let at = TexEval { uv, mesh };
         // The hit's geometry, made only for a parameter that reads it (a normal or height map), once.
         let mut hit = None;
@@ -185,6 +191,9 @@ impl Scene {
     /// `coordinate_system(ng)`; without them, the barycentric parameterisation, `p1 − p0` and `p2 − p0`.
     #[must_use]
     pub fn hit_frame(&self, si: &SurfaceInteraction) -> HitFrame {
+        if let Surface::Analytic(k) = self.surface(si.prim) {
+            return self.analytic_hit_frame(si, k);
+        }
         let prim = si.prim as usize;
         let [p0, p1, p2] = self.shading(si.prim).p;
         let (dp0, dp1) = (p1 - p0, p2 - p0);
@@ -216,7 +225,8 @@ impl Scene {
     #[must_use]
     pub fn tex_uv(&self, si: &SurfaceInteraction) -> Vec2 {
         let prim = si.prim as usize;
-        if !self.tri_has_uv[prim] {
+        // An analytic shape's `si.uv` are its texture coordinates (module `analytic`).
+        if self.surface(si.prim) != Surface::Triangle(si.prim) || !self.tri_has_uv[prim] {
             return si.uv;
         }
         let uvs = self.mesh.uvs.as_deref().expect("the scene's mesh has uvs");
@@ -228,7 +238,8 @@ impl Scene {
     /// is too long for the processor to run ahead into the next hit's miss). The loads touch both cache
     /// lines of each record: its first position and, 92 bytes on, its material.
     pub fn warm_shading(&self, hits: &[Option<Hit>]) {
-        let touched = hits.iter().flatten().fold(0u32, |acc, hit| {
+        let triangles = self.triangle_count() as u32;
+        let touched = hits.iter().flatten().filter(|h| h.prim < triangles).fold(0u32, |acc, hit| {
             let tri = self.shading(hit.prim);
             acc ^ tri.p[0].x.to_bits() ^ tri.material
         });

@@ -1,6 +1,7 @@
 //! Scene files (TOML, Mitsuba 3 vocabulary) → [`Scene`]: one triangle soup with a material per triangle
 //! (the flattened shapes in world space, then each instanced shapegroup's shapes once, in object space,
-//! placed by instances), the lights, the camera and the render settings.
+//! placed by instances), the analytic shapes (sphere, disk, cylinder), the lights, the camera and the
+//! render settings.
 //!
 //! Every table rejects unknown keys (`deny_unknown_fields`) and keys that do not apply to its `type`. Errors
 //! ([`SceneError`]) name the file, the key path (`shape[3].bsdf.reflectance`) with its line, and the
@@ -52,7 +53,7 @@
 //! type = "sphere"
 //! center = [0.4, -0.35, 0.25]  # default [0, 0, 0]
 //! radius = 0.3                 # default 1
-//! # rings = 128, segments = 256   (caustica extension: tessellation; defaults shown)
+//! # rings = 128, segments = 256   (caustica extension: a tessellated sphere; defaults shown)
 //! bsdf = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
 //!
 //! [[shape]]
@@ -105,8 +106,10 @@
 //! **Transforms** (`transform`): `to_world` is one table or a list; in a list **the first element is
 //! applied first** (Mitsuba's XML order), so the floor above is rotated, then translated.
 //!
-//! **Shapes** (`crate::shape`: one file per type; `build` places them): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres are
-//! tessellated (128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius) with smooth normals; meshes
+//! **Shapes** (`crate::shape`: one file per type; `build` places them): rectangles (the square [-1,1]² facing +z) and cubes are flat-shaded; spheres,
+//! disks and cylinders are analytic (module `analytic`, `accel::analytic`: Mitsuba's quadrics and uvs), except
+//! with an emitter, in a shapegroup, or a sphere given `rings`, `segments` or `face_normals` (then tessellated:
+//! 128 rings × 256 segments by default, chord error ≤ 3.0e-4·radius, smooth normals); meshes
 //! (obj, ply, serialized) use their vertex normals (angle-weighted normals are computed when the file has none) unless
 //! `face_normals = true`. Normals transform with the inverse transpose, and the winding of mirrored shapes
 //! is swapped so the geometric normal follows the shading normal. Each emitting shape becomes one area
@@ -114,6 +117,7 @@
 //! A shape lying more than 2¹⁴ times its own size from the origin is refused (`precision`: f32 coordinates
 //! cannot hold it there; the error states the limit).
 
+mod analytic;
 pub mod aov;
 mod attributes;
 mod build;
@@ -140,6 +144,7 @@ use std::path::{Path, PathBuf};
 
 pub use convert::convert_scene;
 pub use error::SceneError;
+pub use analytic::{AnalyticShading, Surface};
 pub use interaction::{SurfaceInteraction, SHADOW_EPSILON};
 pub use note::{NoteKind, SceneNote};
 pub use xml::unsupported::Unsupported;
@@ -147,6 +152,7 @@ pub use shading::TriangleShading;
 pub use settings::{CausticsSettings, Estimator, IntegratorSettings};
 pub use transform::look_at;
 
+use crate::accel::analytic::Analytic;
 use crate::accel::{Geometry, Instance};
 use crate::material::Material;
 use crate::texture::{AttributeTable, Texture};
@@ -181,6 +187,11 @@ pub struct Scene {
     pub prototypes: Vec<Range<u32>>,
     /// The instances: a prototype and its placement.
     pub instances: Vec<Instance>,
+    /// The analytic shapes (sphere, disk, cylinder: module `analytic`), in world space; a hit on shape `k`
+    /// has `prim = triangle_count + k` ([`Scene::surface`]).
+    pub analytic: Vec<Analytic>,
+    /// Per analytic shape: its material, its index in the file, its frame rule.
+    pub analytic_shading: Vec<AnalyticShading>,
     /// The materials in use (named ones once each, inline ones once per shape, the default once), indexed
     /// by `tri_material`; [`Scene::bsdf_at`] evaluates one at a hit.
     pub materials: Vec<Material>,
@@ -198,7 +209,7 @@ pub struct Scene {
     pub lights: LightSet,
     pub camera: Camera,
     pub integrator: IntegratorSettings,
-    /// Bounds of the flat soup's vertices and the instances' world boxes.
+    /// Bounds of the flat soup's vertices, the instances' and the analytic shapes' world boxes.
     pub bounds: Aabb,
     /// What the scene files say that was read but not used as written (module `note`).
     pub notes: Vec<SceneNote>,
@@ -297,7 +308,7 @@ impl Scene {
         self.materials.iter().any(|m| m.facts().has_delta)
     }
 
-    /// Bounds of the triangles whose material has a delta lobe (empty when there are none): a photon
+    /// Bounds of the triangles and analytic shapes whose material has a delta lobe (empty when there are none): a photon
     /// whose first ray misses this box cannot become a caustic photon (method.md §2).
     #[must_use]
     pub fn delta_bounds(&self) -> Aabb {
@@ -313,13 +324,15 @@ impl Scene {
             b
         };
         let prototypes: Vec<Aabb> = self.prototypes.iter().map(|r| delta_box(r.clone())).collect();
-        self.instances.iter().fold(delta_box(0..self.flat_triangles), |b, i| b.union(i.world_bounds(prototypes[i.prototype as usize])))
+        let triangles = self.instances.iter().fold(delta_box(0..self.flat_triangles), |b, i| b.union(i.world_bounds(prototypes[i.prototype as usize])));
+        let delta = |s: &&AnalyticShading| self.materials[s.material as usize].facts().has_delta;
+        self.analytic.iter().zip(&self.analytic_shading).filter(|(_, s)| delta(s)).fold(triangles, |b, (a, _)| b.union(a.bounds()))
     }
 
     /// The geometry the intersection backends are built from (`accel::build_accel`).
     #[must_use]
     pub fn geometry(&self) -> Geometry<'_> {
-        Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat_triangles, prototypes: &self.prototypes, instances: &self.instances }
+        Geometry { positions: &self.mesh.positions, indices: &self.mesh.indices, flat: self.flat_triangles, prototypes: &self.prototypes, instances: &self.instances, analytic: &self.analytic }
     }
 
     /// Triangle `prim`'s shading record.
@@ -334,9 +347,12 @@ impl Scene {
     }
 
     /// Triangle `prim`'s shape (its index in the scene file's order, from 0) and its index within that
-    /// shape (Mitsuba's `prim_index`).
+    /// shape (Mitsuba's `prim_index`); an analytic shape's index and 0.
     #[must_use]
     pub fn shape_of(&self, prim: u32) -> (u32, u32) {
+        if let Surface::Analytic(k) = self.surface(prim) {
+            return (self.analytic_shading[k as usize].shape, 0);
+        }
         let shape = self.shape_first_triangle.partition_point(|&first| first <= prim).saturating_sub(1);
         (shape as u32, prim - self.shape_first_triangle.get(shape).copied().unwrap_or(0))
     }

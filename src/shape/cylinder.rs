@@ -3,8 +3,10 @@
 //! `v` along the axis from 0 at `p0` to 1 at `p1`). Mitsuba places its unit cylinder by
 //! `translate(p0)·to_frame(frame of (p1 − p0))·scale(radius, radius, |p1 − p0|)`, the frame being the one
 //! `math::Frame::from_normal` builds (Duff et al. 2017, as Mitsuba's `coordinate_system`), so `u` starts
-//! where Mitsuba's does. Tessellated with [`CYLINDER_SEGMENTS`] quads around (`mesh::shapes::cylinder`),
-//! shaded with the exact normals at the vertices.
+//! where Mitsuba's does. Analytic (`accel::analytic`: intersected in the unit cylinder's space, so any
+//! affine `to_world` works, non-uniform scales included); with an emitter or in a shapegroup, tessellated
+//! with [`CYLINDER_SEGMENTS`] quads around (`mesh::shapes::cylinder`), shaded with the exact normals at the
+//! vertices.
 //!
 //! ```toml
 //! [[shape]]
@@ -16,7 +18,7 @@
 
 use std::path::Path;
 
-use super::{LoadError, Plugin, Shape, ShapeModel};
+use super::{AnalyticKind, LoadError, Plugin, Shape, ShapeModel};
 use crate::math::{Frame, Mat3, Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
 use crate::props::{PropError, Props};
@@ -63,6 +65,9 @@ impl Cylinder {
 impl ShapeModel for Cylinder {
     fn flat(&self) -> bool {
         false
+    }
+    fn analytic(&self) -> Option<(AnalyticKind, Mat4)> {
+        Some((AnalyticKind::Cylinder, self.placement()))
     }
     fn triangles(&self, _: &Path) -> Result<TriangleMesh, LoadError> {
         let mut mesh = shapes::cylinder(CYLINDER_SEGMENTS);

@@ -1,6 +1,6 @@
-//! Mitsuba's `disk` shape: the unit disk at z = 0 facing +z (`to_world` places and sizes it), flat, with
-//! Mitsuba's uvs (`disk.cpp`: `u = r`, `v = φ/2π`), tessellated as a fan of [`DISK_SEGMENTS`] triangles
-//! (`mesh::shapes::disk`).
+//! Mitsuba's `disk` shape: the unit disk at z = 0 facing +z (`to_world` places and sizes it: any affine
+//! map), flat, with Mitsuba's uvs (`disk.cpp`: `u = r`, `v = φ/2π`). Analytic (`accel::analytic`); with an
+//! emitter or in a shapegroup, a fan of [`DISK_SEGMENTS`] triangles (`mesh::shapes::disk`).
 //!
 //! ```toml
 //! [[shape]]
@@ -11,7 +11,8 @@
 
 use std::path::Path;
 
-use super::{LoadError, Plugin, Shape, ShapeModel};
+use super::{AnalyticKind, LoadError, Plugin, Shape, ShapeModel};
+use crate::math::Mat4;
 use crate::mesh::{shapes, TriangleMesh};
 use crate::props::{PropError, Props};
 
@@ -39,5 +40,8 @@ impl ShapeModel for Disk {
     }
     fn triangles(&self, _: &Path) -> Result<TriangleMesh, LoadError> {
         Ok(shapes::disk(DISK_SEGMENTS))
+    }
+    fn analytic(&self) -> Option<(AnalyticKind, Mat4)> {
+        Some((AnalyticKind::Disk, Mat4::IDENTITY))
     }
 }

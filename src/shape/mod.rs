@@ -12,9 +12,16 @@
 //! | `serialized` | `filename`, `shape_index`, `face_normals` | shape `shape_index` of the file |
 //! | `rectangle` | — | [-1, 1]² at z = 0, facing +z |
 //! | `cube` | — | [-1, 1]³ |
-//! | `sphere` | `center`, `radius`, `rings`, `segments`, `face_normals` | a tessellated sphere |
-//! | `disk` | — | the unit disk at z = 0, facing +z, a fan of 256 triangles |
-//! | `cylinder` | `p0`, `p1`, `radius` | an open tube, 256 quads around |
+//! | `sphere` | `center`, `radius`, `rings`, `segments`, `face_normals` | analytic; tessellated with `rings`, `segments` or `face_normals` |
+//! | `disk` | — | analytic: the unit disk at z = 0, facing +z (tessellated: a fan of 256 triangles) |
+//! | `cylinder` | `p0`, `p1`, `radius` | analytic: an open tube (tessellated: 256 quads around) |
+//!
+//! **Analytic shapes** (`sphere`, `disk`, `cylinder`: [`ShapeModel::analytic`]) are intersected as the
+//! quadrics they are (`accel::analytic`: no faceting in reflections), with Mitsuba 3.9.1's
+//! parameterisation. They are tessellated instead (their `triangles`) where caustica does not yet take the
+//! analytic form: when they carry an `emitter` (area lights are sampled on triangles), inside a
+//! `shapegroup` (instances place triangles), and a sphere given `rings`, `segments` or `face_normals`
+//! (caustica's tessellation keys ask for triangles). The scene builder (`scene::build`) decides.
 //!
 //! A new shape type is a file here (its type, its [`ShapeModel`], its `PLUGIN`) and its line in
 //! `shape_types!` below.
@@ -30,10 +37,13 @@ mod sphere;
 
 use std::path::Path;
 
+pub use crate::accel::analytic::Kind as AnalyticKind;
+use crate::math::Mat4;
 use crate::mesh::attribute::Attributes;
 use crate::mesh::TriangleMesh;
 use crate::props::{PropError, Props};
 
+pub use disk::DISK_SEGMENTS;
 pub use sphere::{SPHERE_RINGS, SPHERE_SEGMENTS};
 
 /// A shape type as the scene files name it (`crate::props::Plugin`).
@@ -58,6 +68,11 @@ pub(crate) trait ShapeModel {
     fn flat(&self) -> bool;
     /// The triangles in object space; files are found relative to `base_dir`.
     fn triangles(&self, base_dir: &Path) -> Result<TriangleMesh, LoadError>;
+    /// The analytic primitive the shape is (`accel::analytic`): its kind and its object-space placement,
+    /// applied before `to_world`; `None` for a shape made of triangles (the default).
+    fn analytic(&self) -> Option<(AnalyticKind, Mat4)> {
+        None
+    }
     /// The triangles and the mesh attributes `keep` accepts (`mesh::attribute`; only PLY files have any).
     fn triangles_with_attributes(&self, base_dir: &Path, _keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), LoadError> {
         Ok((self.triangles(base_dir)?, Attributes::default()))
@@ -96,6 +111,9 @@ macro_rules! shape_types {
             }
             fn triangles_with_attributes(&self, base_dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<(TriangleMesh, Attributes), LoadError> {
                 match self { $(Shape::$variant(s) => s.triangles_with_attributes(base_dir, keep),)* }
+            }
+            fn analytic(&self) -> Option<(AnalyticKind, Mat4)> {
+                match self { $(Shape::$variant(s) => s.analytic(),)* }
             }
         }
     };

@@ -1,20 +1,24 @@
-//! Mitsuba's `sphere` shape, tessellated (`mesh::shapes::sphere`: poles on ±z, Mitsuba's uvs, the exact
-//! sphere normals at the vertices, so reflections stay smooth).
+//! Mitsuba's `sphere` shape: analytic (`accel::analytic`; Mitsuba places the unit sphere by `to_world ·
+//! translate(center) · scale(radius)` and intersects the sphere of centre `to_world·0` and radius
+//! `|to_world·x̂|`, so a non-uniform scale gives the sphere of the x axis's scale, as in Mitsuba 3.9.1,
+//! which warns), unless it is given `rings`, `segments` or `face_normals` — caustica's tessellation keys:
+//! then it is triangles (`mesh::shapes::sphere`: poles on ±z, Mitsuba's uvs, the exact sphere normals at
+//! the vertices). Spheres with an emitter or in a shapegroup are tessellated too (`crate::shape`).
 //!
 //! ```toml
 //! [[shape]]
 //! type = "sphere"
 //! center = [0, 1, 0]   # default the origin
 //! radius = 0.5         # default 1
-//! rings = 128          # latitude bands (≥ 2; default below)
-//! segments = 256       # longitude bands (≥ 3)
-//! face_normals = false # true: facets shaded flat
+//! # rings = 128        # tessellated: latitude bands (≥ 2; default below)
+//! # segments = 256     # tessellated: longitude bands (≥ 3)
+//! # face_normals = true # tessellated, facets shaded flat
 //! ```
 
 use std::path::Path;
 
-use super::{LoadError, Plugin, Shape, ShapeModel};
-use crate::math::Vec3;
+use super::{AnalyticKind, LoadError, Plugin, Shape, ShapeModel};
+use crate::math::{Mat4, Vec3};
 use crate::mesh::{shapes, TriangleMesh};
 use crate::props::{PropError, Props};
 
@@ -33,6 +37,8 @@ pub struct Sphere {
     pub rings: u32,
     pub segments: u32,
     pub face_normals: bool,
+    /// `rings`, `segments` or `face_normals` was given: the sphere is triangles (module docs).
+    pub tessellated: bool,
 }
 
 pub(super) const PLUGIN: Plugin = Plugin {
@@ -60,6 +66,7 @@ fn build(p: Props<'_, ()>) -> Result<Shape, PropError> {
         rings,
         segments,
         face_normals: p.bool_or("face_normals", false)?,
+        tessellated: ["rings", "segments", "face_normals"].iter().any(|k| p.has(k)),
     }))
 }
 
@@ -69,5 +76,8 @@ impl ShapeModel for Sphere {
     }
     fn triangles(&self, _: &Path) -> Result<TriangleMesh, LoadError> {
         Ok(shapes::sphere(self.center, self.radius, self.rings, self.segments))
+    }
+    fn analytic(&self) -> Option<(AnalyticKind, Mat4)> {
+        (!self.tessellated).then(|| (AnalyticKind::Sphere, Mat4::from_translation(self.center) * Mat4::from_scale(Vec3::splat(self.radius))))
     }
 }

@@ -174,9 +174,23 @@ fn shape_lights_mis_match_mitsuba() {
 }
 
 #[test]
+fn analytic_shapes_pt_match_mitsuba() {
+    // Analytic spheres, disks and cylinders (src/accel/analytic.rs): a close-up mirror sphere reflecting
+    // checks, a glossy sphere, a disk and a cylinder under non-uniform scales with checkerboards on their
+    // uvs, a flipped disk, a glass sphere's caustic.
+    matches_mitsuba("analytic", Estimator::Pt, 512);
+}
+
+#[test]
+fn analytic_shapes_mis_match_mitsuba() {
+    // The glass sphere's caustic and the mirror sphere's reflections from photons through analytic shapes.
+    matches_mitsuba("analytic", Estimator::Mis, 64);
+}
+
+#[test]
 fn disk_and_cylinder_pt_match_mitsuba() {
-    // Tessellated disks and cylinders against Mitsuba's analytic ones: a disk light, Mitsuba's uvs on both
-    // (a checkerboard), a cylinder placed by p0, p1 and radius.
+    // Disks and cylinders (analytic; the light disk tessellated) against Mitsuba's: a disk light, Mitsuba's
+    // uvs on both (a checkerboard), a cylinder placed by p0, p1 and radius.
     matches_mitsuba("shapes", Estimator::Pt, 512);
 }
 
