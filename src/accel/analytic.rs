@@ -226,6 +226,13 @@ impl Analytic {
         self.to_world
     }
 
+    /// Whether the normal is negated (module docs: `flip_normals` and the mirror rule; a disk's
+    /// `flip_normals` is in its placement instead, so this is false for disks).
+    #[must_use]
+    pub fn flipped(&self) -> bool {
+        self.flip
+    }
+
     /// Bytes of one primitive.
     pub const BYTES: usize = size_of::<Self>();
 }

@@ -107,14 +107,16 @@ to_world = { translate = [0, 3, 0] }
     fn analytic_shapes_are_built_hit_and_shaded() {
         let scene = Scene::from_toml_str(SCENE, Path::new("."), Path::new("a.toml")).unwrap();
         let kinds: Vec<_> = scene.analytic.iter().map(|a| a.kind.name()).collect();
-        assert_eq!(kinds, ["sphere", "disk", "cylinder"]);
-        assert_eq!(scene.analytic_shading.iter().map(|s| s.shape).collect::<Vec<_>>(), [1, 3, 5]);
-        // The rectangle, the tessellated sphere and the emitting disk are triangles.
+        assert_eq!(kinds, ["sphere", "disk", "disk", "cylinder"]);
+        assert_eq!(scene.analytic_shading.iter().map(|s| s.shape).collect::<Vec<_>>(), [1, 3, 4, 5]);
+        // The rectangle and the tessellated sphere are triangles.
         let tessellated = crate::mesh::shapes::sphere(Vec3::ZERO, 1.0, 8, 16).triangle_count();
-        assert_eq!(scene.triangle_count(), 2 + tessellated + crate::shape::DISK_SEGMENTS as usize);
+        assert_eq!(scene.triangle_count(), 2 + tessellated);
         assert!(scene.bounds.contains(Vec3::new(0.0, 0.0, 3.5)) && scene.bounds.contains(Vec3::new(1.0, 4.0, 0.0)));
         let n = scene.triangle_count() as u32;
-        assert_eq!((scene.surface(n - 1), scene.surface(n + 2)), (Surface::Triangle(n - 1), Surface::Analytic(2)));
+        assert_eq!((scene.surface(n - 1), scene.surface(n + 3)), (Surface::Triangle(n - 1), Surface::Analytic(3)));
+        // The emitting disk is an area light over its analytic surface, primitive n + 2.
+        assert_eq!((scene.lights.light_of_prim(n + 2), scene.lights.light_of_prim(n + 1)), (Some(0), None));
         let accel = build_accel(BackendKind::Bvh, &scene.geometry()).unwrap();
         // The sphere from above: its top, Mitsuba's uv (θ = 0), the anisotropic frame along ∂p/∂u.
         let ray = Ray::new(Vec3::new(0.3, 0.0, 10.0), Vec3::new(0.0, 0.0, -1.0));

@@ -5,7 +5,8 @@
 //! 2. **files** — every referenced file (meshes, environment maps) must exist;
 //! 3. **load** — meshes are loaded or generated, placed in world space and flattened into one triangle
 //!    soup (per-triangle material and flat flag); spheres, disks and cylinders become analytic shapes
-//!    where `crate::shape`'s rule says so (`analytic_shape`); each emitting shape becomes one [`AreaLight`]. The
+//!    where `crate::shape`'s rule says so (`analytic_shape`); each emitting shape becomes one [`AreaLight`]
+//!    (over its triangles, or over its analytic surface, `light::shapes`, numbered after all triangles). The
 //!    shapes of the shapegroups that instances place follow, in their group's object space, each group's
 //!    triangles a prototype (module `instances`).
 //!
@@ -34,7 +35,7 @@ use crate::camera::{self, Camera, CameraError, Projection};
 use crate::film::{filter, PixelFilter};
 use crate::accel::analytic::Analytic;
 use crate::accel::Instance;
-use crate::light::{AreaLight, EnvMap, Light, LightError, LightSet};
+use crate::light::{AnalyticShape, AreaLight, EnvMap, Light, LightError, LightSet};
 use crate::math::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use crate::emitter::{self, Emitter};
 use crate::mesh::attribute::Attributes;
@@ -208,6 +209,9 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
     let mut shape_first_triangle = Vec::with_capacity(shape_plans.len());
     let mut lights = Vec::new();
     let (mut analytic, mut analytic_shading) = (Vec::new(), Vec::new());
+    // Analytic shapes with an area emitter: (index in `analytic`, radiance); their lights are made once the
+    // triangle count, which numbers their primitives, is known.
+    let mut emissive_analytic = Vec::new();
     // The flat shapes, then the groups that some instance places, each group's shapes together.
     let n_flat = shape_plans.len();
     let placed_groups: Vec<usize> = (0..group_plans.len()).filter(|g| instance_plans.iter().any(|(i, _)| *i as usize == *g)).collect();
@@ -221,6 +225,9 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
             shape_first_triangle.push(mesh.triangle_count() as u32);
             let what = format!("the {} shape", plan.shape.type_name());
             attributes.add_shape(ctx, &plan.key, &what, plan.material, mesh.triangle_count() as u32, mesh.positions.len() as u32, 0, &Attributes::default())?;
+            if let Some(radiance) = &plan.radiance {
+                emissive_analytic.push((analytic.len(), radiance));
+            }
             analytic.push(shape);
             analytic_shading.push(AnalyticShading { material: plan.material, shape: i as u32, anisotropic: materials[plan.material as usize].facts().anisotropic });
             continue;
@@ -311,7 +318,21 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
         }
         _ => camera(ctx, &default_sensor(bounds))?,
     };
-    let lights = LightSet::new(lights, mesh.triangle_count(), bounds);
+    for (k, radiance) in emissive_analytic {
+        // Primitive `triangle_count + k` (`Scene::surface`).
+        let prim = (mesh.triangle_count() + k) as u32;
+        let Some(shape) = AnalyticShape::from_primitive(&analytic[k]) else {
+            continue;
+        };
+        let light = match radiance {
+            PlannedRadiance::Constant(c) => AreaLight::analytic(*c, prim, shape),
+            PlannedRadiance::Texture(t) => AreaLight::analytic_textured(t.clone(), prim, shape),
+        };
+        if light.max_radiance().max_element() > 0.0 && light.area() > 0.0 {
+            lights.push(Light::Area(light));
+        }
+    }
+    let lights = LightSet::new(lights, mesh.triangle_count() + analytic.len(), bounds);
     let attributes = attributes.finish(&mut materials, &textures);
     Ok(Scene {
         path: name.to_path_buf(),
@@ -533,10 +554,11 @@ fn plan_emitter(ctx: &ErrorContext, key: &str, d: &PluginDesc, base_dir: &Path, 
     })
 }
 
-/// The analytic primitive a shape is placed as (`crate::shape`'s rule: not with an emitter, not in a
-/// shapegroup — `flat` is false there — and not a sphere given its tessellation keys), in world space.
+/// The analytic primitive a shape is placed as (`crate::shape`'s rule: not in a shapegroup — `flat` is
+/// false there — and not a sphere given its tessellation keys), in world space; with an emitter, its light
+/// samples the same surface (`light::shapes`).
 fn analytic_shape(ctx: &ErrorContext, plan: &ShapePlan, flat: bool) -> Result<Option<Analytic>, SceneError> {
-    let Some((kind, placement)) = plan.shape.analytic().filter(|_| flat && plan.radiance.is_none()) else {
+    let Some((kind, placement)) = plan.shape.analytic().filter(|_| flat) else {
         return Ok(None);
     };
     let shape = Analytic::new(kind, plan.to_world * placement, plan.flip);

@@ -4,7 +4,8 @@
 //! `translate(p0)·to_frame(frame of (p1 − p0))·scale(radius, radius, |p1 − p0|)`, the frame being the one
 //! `math::Frame::from_normal` builds (Duff et al. 2017, as Mitsuba's `coordinate_system`), so `u` starts
 //! where Mitsuba's does. Analytic (`accel::analytic`: intersected in the unit cylinder's space, so any
-//! affine `to_world` works, non-uniform scales included); with an emitter or in a shapegroup, tessellated
+//! affine `to_world` works, non-uniform scales included; with an emitter, an area light over it:
+//! `light::shapes`); in a shapegroup, tessellated
 //! with [`CYLINDER_SEGMENTS`] quads around (`mesh::shapes::cylinder`), shaded with the exact normals at the
 //! vertices.
 //!

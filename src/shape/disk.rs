@@ -1,6 +1,6 @@
 //! Mitsuba's `disk` shape: the unit disk at z = 0 facing +z (`to_world` places and sizes it: any affine
-//! map), flat, with Mitsuba's uvs (`disk.cpp`: `u = r`, `v = φ/2π`). Analytic (`accel::analytic`); with an
-//! emitter or in a shapegroup, a fan of [`DISK_SEGMENTS`] triangles (`mesh::shapes::disk`).
+//! map), flat, with Mitsuba's uvs (`disk.cpp`: `u = r`, `v = φ/2π`). Analytic (`accel::analytic`; with an
+//! emitter, an area light over it: `light::shapes`); in a shapegroup, a fan of [`DISK_SEGMENTS`] triangles (`mesh::shapes::disk`).
 //!
 //! ```toml
 //! [[shape]]

@@ -18,10 +18,11 @@
 //!
 //! **Analytic shapes** (`sphere`, `disk`, `cylinder`: [`ShapeModel::analytic`]) are intersected as the
 //! quadrics they are (`accel::analytic`: no faceting in reflections), with Mitsuba 3.9.1's
-//! parameterisation. They are tessellated instead (their `triangles`) where caustica does not yet take the
-//! analytic form: when they carry an `emitter` (area lights are sampled on triangles), inside a
-//! `shapegroup` (instances place triangles), and a sphere given `rings`, `segments` or `face_normals`
-//! (caustica's tessellation keys ask for triangles). The scene builder (`scene::build`) decides.
+//! parameterisation; one carrying an `emitter` is an area light over that surface (`light::shapes`: a
+//! sphere sampled by solid angle, a disk and a cylinder by area). They are tessellated instead (their
+//! `triangles`) where caustica does not yet take the analytic form: inside a `shapegroup` (instances place
+//! triangles), and a sphere given `rings`, `segments` or `face_normals` (caustica's tessellation keys ask
+//! for triangles). The scene builder (`scene::build`) decides.
 //!
 //! A new shape type is a file here (its type, its [`ShapeModel`], its `PLUGIN`) and its line in
 //! `shape_types!` below.

@@ -3,7 +3,8 @@
 //! `|to_world·x̂|`, so a non-uniform scale gives the sphere of the x axis's scale, as in Mitsuba 3.9.1,
 //! which warns), unless it is given `rings`, `segments` or `face_normals` — caustica's tessellation keys:
 //! then it is triangles (`mesh::shapes::sphere`: poles on ±z, Mitsuba's uvs, the exact sphere normals at
-//! the vertices). Spheres with an emitter or in a shapegroup are tessellated too (`crate::shape`).
+//! the vertices). Spheres in a shapegroup are tessellated too (`crate::shape`); an emitting analytic sphere
+//! is an area light sampled by solid angle (`light::shapes`).
 //!
 //! ```toml
 //! [[shape]]

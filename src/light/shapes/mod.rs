@@ -5,10 +5,10 @@
 //!
 //! Each shape is given by plain parameters (its `to_world` as an `Affine3A` of Mitsuba's object-space
 //! shape, and whether its normal is negated), so the light does not depend on how the intersector stores
-//! it; the intersector's hit normals must equal the light's. The normal a surface point carries is its
-//! **emitting side** (Mitsuba's area emitter is one-sided): Mitsuba's hit normal of the shape (each file
-//! says which), negated by `flip` (Mitsuba's `m_flip_normals`). Texture coordinates are Mitsuba's at every
-//! point (`uv`).
+//! it; [`AnalyticShape::from_primitive`] reads them off `accel::analytic::Analytic`, whose hit normals the
+//! light's must equal. The normal a surface point carries is its **emitting side** (Mitsuba's area emitter
+//! is one-sided): Mitsuba's hit normal of the shape (each file says which), negated by `flip` (Mitsuba's
+//! `m_flip_normals`). Texture coordinates are Mitsuba's at every point (`uv`).
 //!
 //! Densities: `pdf_a` per unit area of the world-space surface; `pdf_w` per steradian at a reference point,
 //! 0 when the point's emitting side faces away from the reference point. Every sampler and its `pdf_*`
@@ -24,6 +24,7 @@ pub use cylinder::CylinderShape;
 pub use disk::DiskShape;
 pub use sphere::SphereShape;
 
+use crate::accel::analytic::{Analytic, Kind};
 use crate::math::{gamma, Mat3, Vec2, Vec3};
 use glam::Affine3A;
 
@@ -50,6 +51,19 @@ pub enum AnalyticShape {
 }
 
 impl AnalyticShape {
+    /// The emitting surface of the intersector's primitive `a`: its placement and its normal rule (the
+    /// sphere's and the tube's `flip`, `flip_normals` toggled by a mirror; the disk's `flip_normals` folded
+    /// into its placement as a mirror of z). `None` when the shape has no area.
+    #[must_use]
+    pub fn from_primitive(a: &Analytic) -> Option<Self> {
+        let to_world = a.to_world().as_affine3a();
+        match a.kind {
+            Kind::Sphere => SphereShape::new(to_world, a.flipped()).map(AnalyticShape::Sphere),
+            Kind::Disk => DiskShape::new(to_world, a.flipped()).map(AnalyticShape::Disk),
+            Kind::Cylinder => CylinderShape::new(to_world, a.flipped()).map(AnalyticShape::Cylinder),
+        }
+    }
+
     /// World-space area.
     #[must_use]
     pub fn area(&self) -> f32 {
