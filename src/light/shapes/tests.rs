@@ -438,3 +438,33 @@ fn light_set_queries_on_analytic_prims_are_the_samplers() {
         mis_agrees_with_nee(["sphere", "disk", "elliptic tube"][k], &lone, 0, shape, 5, p_ref, n_r);
     }
 }
+
+/// The light's surface is the intersector's (`accel::analytic`): at every point the light samples, the
+/// primitive's own surface (point re-projected, normal, uv) is the sample's, for each kind under a
+/// non-uniform scale and under a mirror, with and without `flip_normals`.
+#[test]
+fn the_lights_surface_is_the_intersectors() {
+    use crate::accel::analytic::{Analytic, Kind};
+    use crate::math::{Mat4, Ray};
+    let turned = Mat4::from_translation(Vec3::new(0.3, -0.2, 0.5)) * Mat4::from_quat(Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7));
+    let placements = [turned * Mat4::from_scale(Vec3::new(0.6, 0.4, 1.3)), turned * Mat4::from_scale(Vec3::new(-0.5, 0.5, 0.8))];
+    let mut sampler = Sampler::for_key(15, 0, 0);
+    for kind in [Kind::Sphere, Kind::Disk, Kind::Cylinder] {
+        for (m, to_world) in placements.iter().enumerate() {
+            for flip in [false, true] {
+                let a = Analytic::new(kind, *to_world, flip).unwrap();
+                let shape = AnalyticShape::from_primitive(&a).unwrap();
+                for _ in 0..200 {
+                    let s = shape.sample_area(sampler.next_2d());
+                    let dir = Vec3::new(0.3, -0.8, 0.5).normalize();
+                    let hit = a.surface(&Ray::new(s.p - dir, dir), 1.0);
+                    let what = format!("{} placement {m} flip {flip}", kind.name());
+                    assert!((hit.p - s.p).length() < 1e-5, "{what}: point {} vs {}", hit.p, s.p);
+                    assert!((hit.n - s.n).length() < 1e-4, "{what}: normal {} vs {}", hit.n, s.n);
+                    assert!((hit.uv - s.uv).abs().max_element() < 1e-4 || (hit.uv.x - s.uv.x).abs() > 0.999, "{what}: uv {} vs {}", hit.uv, s.uv);
+                    assert!((shape.normal(s.p) - s.n).length() < 1e-4 && (shape.uv(s.p) - hit.uv).abs().max_element() < 1e-4 || (hit.uv.x - s.uv.x).abs() > 0.999);
+                }
+            }
+        }
+    }
+}
