@@ -188,7 +188,7 @@ impl Analytic {
         };
         let n = if self.flip { -n } else { n };
         let p_error = (f64::from(gamma(3)) * (p.abs() + error_scale)).as_vec3();
-        SurfacePoint { p: p.as_vec3(), p_error, n: n.as_vec3(), uv: uv(self.kind, local).as_vec2() }
+        SurfacePoint { p: p.as_vec3(), p_error, n: n.as_vec3(), uv: object_uv(self.kind, local).as_vec2() }
     }
 
     /// `|to_world|·|local| + |translation|`: the size of the terms the placed point sums.
@@ -259,8 +259,10 @@ fn quadratic_roots(o: DVec3, d: DVec3, r2: f64) -> Option<(f64, f64)> {
 /// Mitsuba's texture coordinates at the object-space point `l`: sphere `(φ/2π, θ/π)` with `φ =
 /// atan2(l.y, l.x)` in [0, 2π) and `θ` Mitsuba's `unit_angle_z` of the point as it is (not renormalised:
 /// under a non-uniform scale it is not a unit vector, and Mitsuba's answer is this formula's); disk `(r,
-/// φ/2π)`; cylinder `(φ/2π, z)`.
-fn uv(kind: Kind, l: DVec3) -> glam::DVec2 {
+/// φ/2π)`; cylinder `(φ/2π, z)`. The one rule of the three shapes' uv: the intersector's surface and the
+/// area lights on these shapes (`light::shapes`) both read it.
+#[must_use]
+pub fn object_uv(kind: Kind, l: DVec3) -> glam::DVec2 {
     let mut phi = l.y.atan2(l.x);
     if phi < 0.0 {
         phi += TWO_PI;

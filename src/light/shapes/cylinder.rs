@@ -12,7 +12,8 @@
 //! `flip` — Mitsuba's `m_flip_normals`, which is `flip_normals` toggled by a mirror, so the two cancel and a
 //! mirrored tube still emits outward. Texture coordinates: `u = φ/2π`, `v = z`.
 
-use super::{affine_point_error, azimuth_fraction, linear, SurfacePoint};
+use super::{affine_point_error, linear, SurfacePoint};
+use crate::accel::analytic::{object_uv, Kind};
 use crate::math::{Mat3, Vec2, Vec3};
 use glam::Affine3A;
 use std::f32::consts::TAU;
@@ -114,7 +115,7 @@ impl CylinderShape {
     #[must_use]
     pub fn uv(&self, p: Vec3) -> Vec2 {
         let local = self.to_object.transform_point3(p);
-        Vec2::new(azimuth_fraction(local.y, local.x), local.z)
+        object_uv(Kind::Cylinder, local.as_dvec3()).as_vec2()
     }
 }
 

@@ -6,7 +6,8 @@
 //! normal), negated by `flip_normals`. Texture coordinates: with `(x, y)` the object-space point,
 //! `u = √(x² + y²)`, `v = atan2(y, x)/2π` in [0, 1).
 
-use super::{affine_point_error, azimuth_fraction, linear, SurfacePoint};
+use super::{affine_point_error, linear, SurfacePoint};
+use crate::accel::analytic::{object_uv, Kind};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::warp::square_to_uniform_disk_concentric;
 use glam::Affine3A;
@@ -58,7 +59,7 @@ impl DiskShape {
         SurfacePoint {
             p: self.to_world.transform_point3(local),
             n: self.n,
-            uv: Vec2::new(d.length(), azimuth_fraction(d.y, d.x)),
+            uv: object_uv(Kind::Disk, d.extend(0.0).as_dvec3()).as_vec2(),
             pdf_a: self.pdf_a(),
             p_error: affine_point_error(&self.to_world, local),
         }
@@ -74,7 +75,7 @@ impl DiskShape {
     #[must_use]
     pub fn uv(&self, p: Vec3) -> Vec2 {
         let local = self.to_object.transform_point3(p);
-        Vec2::new(Vec2::new(local.x, local.y).length(), azimuth_fraction(local.y, local.x))
+        object_uv(Kind::Disk, local.as_dvec3()).as_vec2()
     }
 }
 

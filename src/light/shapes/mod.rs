@@ -157,11 +157,3 @@ fn affine_point_error(t: &Affine3A, local: Vec3) -> Vec3 {
     let abs = Mat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
     gamma(6) * (abs * local.abs() + Vec3::from(t.translation).abs())
 }
-
-/// `(φ/2π)` in [0, 1) of the azimuth `atan2(y, x)` (Mitsuba's `phi < 0 → phi + 2π`, then `/2π`).
-fn azimuth_fraction(y: f32, x: f32) -> f32 {
-    let phi = y.atan2(x);
-    let phi = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi };
-    // 2π − ulp rounds to 1 after the division: keep the fraction below 1.
-    (phi * (1.0 / std::f32::consts::TAU)).min(1.0 - f32::EPSILON * 0.5)
-}

@@ -12,7 +12,8 @@
 //! outside when the sphere emits outward and inside when it emits inward (Mitsuba moves the radius by
 //! its ray epsilon the same way), so each side takes the rule that reaches what it can see.
 
-use super::{azimuth_fraction, SurfacePoint};
+use super::SurfacePoint;
+use crate::accel::analytic::{object_uv, Kind};
 use crate::light::area::{pdf_w_from_area, pdf_w_from_parts};
 use crate::math::{gamma, Frame, Vec2, Vec3};
 use crate::sampling::warp::square_to_uniform_sphere;
@@ -159,15 +160,6 @@ impl SphereShape {
     /// Mitsuba's texture coordinates of the surface point `p` (module docs).
     #[must_use]
     pub fn uv(&self, p: Vec3) -> Vec2 {
-        let local = self.to_object.transform_point3(p);
-        Vec2::new(azimuth_fraction(local.y, local.x), unit_angle_z(local) * (1.0 / PI))
+        object_uv(Kind::Sphere, self.to_object.transform_point3(p).as_dvec3()).as_vec2()
     }
-}
-
-/// Dr.Jit's `unit_angle_z`: the angle of `v` from +z as `2·asin(|v − ẑ|/2)`, or `π − 2·asin(|v + ẑ|/2)`
-/// below the equator (exact near the poles, where `acos(v.z)` is not), for a unit `v`; Mitsuba's sphere
-/// applies it to its object-space point as it is.
-fn unit_angle_z(v: Vec3) -> f32 {
-    let half_chord = |z: f32| (0.5 * (v.x * v.x + v.y * v.y + z * z).sqrt()).min(1.0).asin();
-    if v.z >= 0.0 { 2.0 * half_chord(v.z - 1.0) } else { PI - 2.0 * half_chord(v.z + 1.0) }
 }
