@@ -289,7 +289,13 @@ fn build_file(file: SceneFile, ctx: &ErrorContext, base_dir: &Path, name: &Path)
                     lights.push(Light::Constant { radiance });
                 }
             }
-            EmitterPlan::Built(light) => lights.extend(light),
+            EmitterPlan::Built(light) => {
+                // A sunsky's sky is an environment map baked at load time: its pixels count as an image's.
+                if let Some(Light::Env(env)) = &light {
+                    image_bytes += env.memory_bytes();
+                }
+                lights.extend(light);
+            }
             EmitterPlan::Projector(projector, texture) => lights.extend(projector.light(texture)),
         }
     }
@@ -671,5 +677,23 @@ mod sensor_tests {
             let e = load(sensor).err().unwrap_or_else(|| panic!("{sensor}: loads"));
             assert!(e.contains(key) && e.contains(says), "{sensor}: {e}");
         }
+    }
+}
+
+#[cfg(test)]
+mod sunsky_memory {
+    use super::*;
+
+    /// A sunsky's baked sky counts in the scene's image bytes (the memory check before a render).
+    #[test]
+    fn the_baked_sky_counts_as_an_image() {
+        let scene = |emitter: &str| {
+            let text = format!("[sensor]\nfov = 40\n[[shape]]\ntype = \"rectangle\"\n[[emitter]]\n{emitter}\n");
+            Scene::from_toml_str(&text, Path::new("."), Path::new("s.toml")).unwrap()
+        };
+        let sky = scene("type = \"sunsky\"");
+        let constant = scene("type = \"constant\"");
+        assert!(sky.image_bytes >= 1024 * 512 * 12, "{} bytes", sky.image_bytes);
+        assert_eq!(constant.image_bytes, 0);
     }
 }
