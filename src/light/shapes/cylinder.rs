@@ -12,7 +12,7 @@
 //! `flip` — Mitsuba's `m_flip_normals`, which is `flip_normals` toggled by a mirror, so the two cancel and a
 //! mirrored tube still emits outward. Texture coordinates: `u = φ/2π`, `v = z`.
 
-use super::{affine_point_error, linear, SurfacePoint};
+use super::{affine_point_error, inverse_transpose, SurfacePoint};
 use crate::accel::analytic::{object_uv, Kind};
 use crate::math::{Mat3, Vec2, Vec3};
 use glam::Affine3A;
@@ -37,12 +37,8 @@ impl CylinderShape {
     /// (module docs). `None` if `to_world` is singular or its area is not positive and finite.
     #[must_use]
     pub fn new(to_world: Affine3A, flip: bool) -> Option<Self> {
-        let m = linear(&to_world);
-        let det = m.determinant();
-        if !(det != 0.0 && det.is_finite()) {
-            return None;
-        }
-        let normal_matrix = m.inverse().transpose() * det.signum();
+        let (inverse_transpose, det) = inverse_transpose(&to_world)?;
+        let normal_matrix = inverse_transpose * det.signum();
         let abs_det = det.abs();
         let step = std::f64::consts::TAU / AREA_NODES as f64;
         let integral: f64 = (0..AREA_NODES)

@@ -6,7 +6,7 @@
 //! normal), negated by `flip_normals`. Texture coordinates: with `(x, y)` the object-space point,
 //! `u = √(x² + y²)`, `v = atan2(y, x)/2π` in [0, 1).
 
-use super::{affine_point_error, linear, SurfacePoint};
+use super::{affine_point_error, inverse_transpose, SurfacePoint};
 use crate::accel::analytic::{object_uv, Kind};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::warp::square_to_uniform_disk_concentric;
@@ -27,12 +27,8 @@ impl DiskShape {
     /// `None` if `to_world` is singular or its area is not positive and finite.
     #[must_use]
     pub fn new(to_world: Affine3A, flip: bool) -> Option<Self> {
-        let m = linear(&to_world);
-        let det = m.determinant();
-        if !(det != 0.0 && det.is_finite()) {
-            return None;
-        }
-        let nz = m.inverse().transpose() * Vec3::Z;
+        let (inverse_transpose, det) = inverse_transpose(&to_world)?;
+        let nz = inverse_transpose * Vec3::Z;
         let area = PI * det.abs() * nz.length();
         let n = nz.normalize_or_zero();
         if !(area > 0.0 && area.is_finite()) || n == Vec3::ZERO {

@@ -149,6 +149,14 @@ fn linear(t: &Affine3A) -> Mat3 {
     Mat3::from(t.matrix3)
 }
 
+/// `(M⁻ᵀ, det M)` of `t`'s linear part `M` (normals map by `M⁻ᵀ`), or `None` when `M` is singular or its
+/// determinant not finite: the check every shape placed by an affine map opens with.
+fn inverse_transpose(t: &Affine3A) -> Option<(Mat3, f32)> {
+    let m = linear(t);
+    let det = m.determinant();
+    (det != 0.0 && det.is_finite()).then(|| (m.inverse().transpose(), det))
+}
+
 /// Conservative absolute error of `t·local` per axis when `local` itself carries a few ulps of relative
 /// error (sines and cosines): `γ(6)·(|M|·|local| + |translation|)` (pbrt-v4 §6.8.5 for the transform, three
 /// more roundings for `local`).
